@@ -1,0 +1,197 @@
+"""Configs are data: TOML files whose every key is known and range-checked before anything runs.
+
+A schema maps each key to a `Field` (type, allowed range, unit, meaning). Unknown keys, missing keys and
+out-of-range values raise `ConfigError` naming the file, the key and the allowed range.
+
+>>> disk = load_disk("configs/disk.toml")
+>>> disk.R
+191.0
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+class ConfigError(ValueError):
+    """A config value is unknown, missing or outside its allowed range."""
+
+
+@dataclass(frozen=True)
+class Field:
+    lo: float = -math.inf
+    hi: float = math.inf
+    lo_open: bool = False
+    hi_open: bool = False
+    kind: type = float
+    unit: str = ""
+    meaning: str = ""
+
+    def allowed(self) -> str:
+        if self.kind is str:
+            return "a string"
+        left = "(" if self.lo_open else "["
+        right = ")" if self.hi_open else "]"
+        return f"{left}{self.lo:g}, {self.hi:g}{right} {self.unit}".rstrip()
+
+    def check(self, where: str, value):
+        if self.kind is str:
+            if not isinstance(value, str):
+                raise ConfigError(f"{where} = {value!r}: must be a string")
+            return value
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{where} = {value!r}: must be a number in {self.allowed()}")
+        if self.kind is int and int(value) != value:
+            raise ConfigError(f"{where} = {value!r}: must be a whole number in {self.allowed()}")
+        ok_lo = value > self.lo if self.lo_open else value >= self.lo
+        ok_hi = value < self.hi if self.hi_open else value <= self.hi
+        if not (ok_lo and ok_hi and math.isfinite(value)):
+            raise ConfigError(f"{where} = {value!r} is out of range: allowed {self.allowed()}")
+        return self.kind(value)
+
+
+def positive(unit="mm", meaning="", kind=float) -> Field:
+    return Field(0.0, math.inf, lo_open=True, hi_open=True, kind=kind, unit=unit, meaning=meaning)
+
+
+def check_table(where: str, table: dict, schema: dict[str, Field], optional: dict | None = None) -> dict:
+    """Validate one TOML table against a schema; `optional` gives defaults for keys that may be absent."""
+    optional = optional or {}
+    if not isinstance(table, dict):
+        raise ConfigError(f"{where}: expected a table of keys")
+    unknown = sorted(set(table) - set(schema))
+    if unknown:
+        raise ConfigError(f"{where}: unknown key(s) {', '.join(unknown)}; known keys: {', '.join(schema)}")
+    missing = sorted(set(schema) - set(table) - set(optional))
+    if missing:
+        raise ConfigError(f"{where}: missing key(s) {', '.join(missing)}")
+    merged = {**optional, **table}
+    return {k: schema[k].check(f"{where}.{k}", merged[k]) for k in schema}
+
+
+def read_toml(path) -> dict:
+    path = Path(path)
+    if not path.is_absolute() and not path.exists():
+        path = ROOT / path
+    try:
+        with open(path, "rb") as f:
+            return tomllib.load(f)
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such config file") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{path}: not valid TOML: {e}") from None
+
+
+def split_sections(path, data: dict, known: set[str]) -> dict:
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ConfigError(f"{path}: unknown section(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+    return data
+
+
+# --- the hole-forming disk (seed 001 §2.4) ---------------------------------------------------------------
+
+DISK_FIELDS = {
+    "R0": positive(meaning="punch mounting-plate radius"),
+    "L3": positive(meaning="punch length from the plate rim to the tip"),
+    "N": Field(1, 360, kind=int, meaning="punches per disk"),
+    "D": positive(meaning="punch (cylinder) diameter"),
+    "h": positive(meaning="height of the punch's end cone"),
+    "penetration": positive(meaning="depth of the tip's lowest point below the undisturbed surface"),
+    "width": positive(meaning="disk (mounting plate) width B1"),
+    "row_spacing": positive(meaning="distance between disks on the roller"),
+    "rows": Field(1, 100, kind=int, meaning="disks on the roller"),
+    "speed_kmh_min": positive("km/h", "lowest field forward speed"),
+    "speed_kmh_max": positive("km/h", "highest field forward speed"),
+    "speed_kmh": positive("km/h", "forward speed used by default"),
+    "slip": Field(0.0, 1.0, hi_open=True, unit="", meaning="slip rate δ = 1 − r/R (eq 1)"),
+}
+
+
+@dataclass(frozen=True)
+class Disk:
+    """The rolling punch disk of seed 001 §2.4; lengths in mm."""
+    R0: float
+    L3: float
+    N: int
+    D: float
+    h: float
+    penetration: float
+    width: float
+    row_spacing: float
+    rows: int
+    speed_kmh_min: float
+    speed_kmh_max: float
+    speed_kmh: float
+    slip: float
+    name: str = "disk"
+
+    @property
+    def R(self) -> float:
+        """Theoretical rolling radius of the tips, R = R0 + L3 (§2.4)."""
+        return self.R0 + self.L3
+
+    @property
+    def d(self) -> float:
+        return self.D / 2.0
+
+    @property
+    def H0(self) -> float:
+        """Height of the disk axis above the undisturbed surface so that the tip reaches `penetration`."""
+        return self.R - self.penetration
+
+
+def disk_from_dict(values: dict, where: str = "disk", name: str = "disk") -> Disk:
+    v = check_table(where, values, DISK_FIELDS)
+    if v["penetration"] > v["L3"]:
+        raise ConfigError(f"{where}.penetration = {v['penetration']:g} is out of range: allowed (0, L3 = {v['L3']:g}] mm "
+                          "(the plate would enter the soil)")
+    if v["h"] >= v["L3"]:
+        raise ConfigError(f"{where}.h = {v['h']:g} is out of range: allowed (0, L3 = {v['L3']:g}) mm")
+    if not v["speed_kmh_min"] <= v["speed_kmh_max"]:
+        raise ConfigError(f"{where}.speed_kmh_min = {v['speed_kmh_min']:g} must not exceed speed_kmh_max = {v['speed_kmh_max']:g}")
+    return Disk(**v, name=name)
+
+
+def load_disk(path) -> Disk:
+    data = split_sections(path, read_toml(path), {"disk", "source"})
+    if "disk" not in data:
+        raise ConfigError(f"{path}: missing section [disk]")
+    check_sources(path, data.get("source", {}), DISK_FIELDS)
+    return disk_from_dict(data["disk"], f"{path}: disk", Path(path).stem)
+
+
+def check_sources(path, sources: dict, schema: dict):
+    unknown = sorted(set(sources) - set(schema))
+    if unknown:
+        raise ConfigError(f"{path}: [source] names unknown key(s) {', '.join(unknown)}")
+
+
+# --- the pot seedling (seed 001 §1.1) and the pass criteria (§4.2) -----------------------------------------
+
+SEEDLING_FIELDS = {
+    "a1": positive(meaning="upper side of the square pot"),
+    "a2": positive(meaning="lower side of the square pot"),
+    "h0": positive(meaning="pot height"),
+}
+
+
+@dataclass(frozen=True)
+class Seedling:
+    a1: float
+    a2: float
+    h0: float
+
+
+def load_seedling(path="configs/seedling.toml") -> Seedling:
+    data = split_sections(path, read_toml(path), {"seedling", "source"})
+    check_sources(path, data.get("source", {}), SEEDLING_FIELDS)
+    return Seedling(**check_table(f"{path}: seedling", data.get("seedling", {}), SEEDLING_FIELDS))
+
+
+def as_dict(obj) -> dict:
+    return {f.name: getattr(obj, f.name) for f in fields(obj)}

@@ -1,0 +1,43 @@
+"""Small I/O helpers: atomic writes and the provenance line every result carries."""
+from __future__ import annotations
+
+import datetime
+import os
+import platform
+import subprocess
+from pathlib import Path
+
+import pandas as pd
+
+from analysis.config import ROOT
+
+
+def stamp(command: str) -> str:
+    """One provenance line: the command that made a result, the commit and the machine."""
+    try:
+        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                             text=True, timeout=5).stdout.strip() or "uncommitted"
+    except (OSError, subprocess.SubprocessError):
+        rev = "unknown"
+    return (f"made by `{command}` at commit {rev} on {platform.node() or 'host'} "
+            f"({os.cpu_count()} cores), {datetime.date.today().isoformat()}")
+
+
+def atomic_write(path: Path, text: str):
+    """Write text to path via a temporary file and a rename, so a crash never leaves half a file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+def atomic_csv(df: pd.DataFrame, path: Path, note: str | None = None):
+    """CSV with an optional leading `# note` comment line (read back with `read_table`)."""
+    body = df.to_csv(index=False)
+    atomic_write(path, (f"# {note}\n" if note else "") + body)
+
+
+def read_table(path) -> pd.DataFrame:
+    """Read a CSV whose comment lines start with '#'."""
+    return pd.read_csv(path, comment="#")

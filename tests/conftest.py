@@ -1,0 +1,21 @@
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from analysis.config import load_disk  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def disk():
+    """The seed 001 disk (R0 = 70, L3 = 121, N = 6, D = 50, h = 20, penetration 70 mm)."""
+    return load_disk(ROOT / "configs/disk.toml")
+
+
+@pytest.fixture(scope="session")
+def other_disk():
+    """A different disk (N = 5, D = 40, R0 = 60, L3 = 100) so no test leans on the seed's numbers."""
+    return load_disk(ROOT / "configs/disks/n5_d40.toml")

@@ -1,0 +1,66 @@
+"""Bad input fails before anything runs, with the key and the allowed range in the message."""
+import pytest
+
+from analysis import cli
+from analysis.config import ConfigError, load_disk, load_seedling
+
+
+def write_disk(tmp_path, **change):
+    base = dict(R0=70.0, L3=121.0, N=6, D=50.0, h=20.0, penetration=70.0, width=100.0, row_spacing=300.0,
+                rows=5, speed_kmh_min=1.8, speed_kmh_max=1.96, speed_kmh=1.9, slip=0.0)
+    base.update(change)
+    body = "[disk]\n" + "".join(f"{k} = {v!r}\n" for k, v in base.items() if v is not None)
+    p = tmp_path / "d.toml"
+    p.write_text(body)
+    return p
+
+
+def test_seed_configs_load(disk):
+    assert (disk.R, disk.N, disk.D, disk.h, disk.penetration, disk.H0) == (191.0, 6, 50.0, 20.0, 70.0, 121.0)
+    s = load_seedling()
+    assert (s.a1, s.a2, s.h0) == (35.0, 25.0, 40.0)
+
+
+@pytest.mark.parametrize("key,value,pattern", [
+    ("R0", 0.0, r"disk\.R0 = 0\.0 is out of range: allowed \(0, inf\) mm"),
+    ("D", -5.0, r"disk\.D = -5\.0 is out of range"),
+    ("L3", -1.0, r"disk\.L3"),
+    ("slip", 1.0, r"disk\.slip = 1\.0 is out of range: allowed \[0, 1\)"),
+    ("slip", -0.1, r"disk\.slip"),
+    ("N", 0, r"disk\.N = 0 is out of range: allowed \[1, 360\]"),
+    ("N", 2.5, r"disk\.N = 2\.5: must be a whole number"),
+    ("penetration", 130.0, r"disk\.penetration = 130 is out of range: allowed \(0, L3 = 121\] mm"),
+    ("h", "x", r"disk\.h = 'x': must be a number"),
+])
+def test_bad_disk_value(tmp_path, key, value, pattern):
+    with pytest.raises(ConfigError, match=pattern):
+        load_disk(write_disk(tmp_path, **{key: value}))
+
+
+def test_unknown_and_missing_keys(tmp_path):
+    with pytest.raises(ConfigError, match=r"unknown key\(s\) Rzero"):
+        load_disk(write_disk(tmp_path, Rzero=3.0))
+    with pytest.raises(ConfigError, match=r"missing key\(s\) N"):
+        load_disk(write_disk(tmp_path, N=None))
+    p = tmp_path / "s.toml"
+    p.write_text("[disc]\nR0 = 1\n")
+    with pytest.raises(ConfigError, match=r"unknown section\(s\) disc"):
+        load_disk(p)
+
+
+def test_cli_reports_bad_config_before_running(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert cli.main(["theory", "--disk", str(write_disk(tmp_path, slip=2.0)), "--out", str(out)]) == 2
+    assert "disk.slip = 2.0 is out of range" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_theory_runs_on_another_disk(tmp_path, other_disk):
+    """`theory` on a non-seed disk writes a consistent table: L1 = D, and no paper column to compare."""
+    from analysis import theory_report
+    res = theory_report.run(other_disk, tmp_path, "test")
+    t = res["table"].set_index(["slip", "quantity"])
+    assert t.loc[(0.0, "L1"), "envelope_mm"] == pytest.approx(other_disk.D, abs=1e-3)
+    assert t.paper_mm.isna().all()
+    for name in ("table1.csv", "trajectories.png", "hole_contour.png", "slip_length.png"):
+        assert (tmp_path / name).stat().st_size > 0
