@@ -195,3 +195,89 @@ def load_seedling(path="configs/seedling.toml") -> Seedling:
 
 def as_dict(obj) -> dict:
     return {f.name: getattr(obj, f.name) for f in fields(obj)}
+
+
+# --- soils (seed 001 Table 2 targets + contact physics) -----------------------------------------------------
+
+SOIL_FIELDS = {
+    "young": Field(1e5, 1e10, unit="Pa", meaning="contact modulus"),
+    "poisson": Field(0.0, 0.5, hi_open=True, meaning="contact shear/normal stiffness ratio source"),
+    "friction_deg": Field(0.0, 60.0, unit="deg", meaning="inter-particle friction angle"),
+    "rolling_stiffness": Field(0.0, 10.0, meaning="alphaKr"),
+    "rolling_friction": Field(0.0, 5.0, meaning="etaRoll"),
+    "normal_cohesion": Field(0.0, 1e8, unit="Pa", meaning="tensile bond strength per contact area"),
+    "shear_cohesion": Field(0.0, 1e8, unit="Pa", meaning="shear bond strength per contact area"),
+    "damping": Field(0.0, 0.9, meaning="YADE local damping in tool scenes"),
+}
+SOILS = ("clay", "loam", "sand")
+
+
+@dataclass(frozen=True)
+class Soil:
+    """One soil: contact physics from configs/soils/<name>.toml, field targets from seed 001 Table 2."""
+    name: str
+    young: float
+    poisson: float
+    friction_deg: float
+    rolling_stiffness: float
+    rolling_friction: float
+    normal_cohesion: float
+    shear_cohesion: float
+    damping: float
+    bulk_density: float      # kg/m3, dry, Table 2
+    cone_index: float        # Pa, mean over 0-150 mm, Table 2
+    moisture: float          # mass fraction of water to dry soil, Table 2
+
+    @property
+    def wet_density(self) -> float:
+        """Mass of moist soil per bed volume, ρ_d(1 + w): what the particles must weigh."""
+        return self.bulk_density * (1.0 + self.moisture)
+
+    def settling_key(self) -> dict:
+        """The parameters that shape a settled packing (cohesion is switched on after settling)."""
+        return {"friction_deg": self.friction_deg, "rolling_stiffness": self.rolling_stiffness,
+                "rolling_friction": self.rolling_friction, "poisson": self.poisson}
+
+
+def soil_from_dict(name: str, values: dict, where: str) -> Soil:
+    import csv
+    v = check_table(where, values, SOIL_FIELDS)
+    with open(ROOT / "configs/field/table2_soils.csv") as f:
+        rows = {r["soil"]: r for r in csv.DictReader(line for line in f if not line.startswith("#"))}
+    if name not in rows:
+        raise ConfigError(f"{where}: soil {name!r} is not in seed 001 Table 2; allowed: {', '.join(rows)}")
+    t = rows[name]
+    return Soil(name=name, **v, bulk_density=1000 * float(t["bulk_density_g_cm3"]),
+                cone_index=1000 * float(t["cone_index_kPa"]), moisture=float(t["moisture_percent"]) / 100)
+
+
+def load_soil(name_or_path) -> Soil:
+    """Load `clay`, `loam`, `sand` or a path to a soil TOML whose file name is one of those."""
+    path = Path(name_or_path)
+    if path.suffix != ".toml":
+        if str(name_or_path) not in SOILS:
+            raise ConfigError(f"soil = {name_or_path!r}: allowed {', '.join(SOILS)} or a path to a soil .toml")
+        path = ROOT / "configs/soils" / f"{name_or_path}.toml"
+    data = split_sections(path, read_toml(path), {"soil", "source"})
+    check_sources(path, data.get("source", {}), SOIL_FIELDS)
+    return soil_from_dict(path.stem, data.get("soil", {}), f"{path}: soil")
+
+
+RESOLUTION_FIELDS = {
+    "radius": Field(0.0005, 0.05, lo_open=False, unit="m", meaning="mean particle radius"),
+    "spread": Field(0.0, 0.8, unit="", meaning="relative half-width of the uniform radius distribution"),
+}
+
+
+@dataclass(frozen=True)
+class Resolution:
+    name: str
+    radius: float
+    spread: float
+
+
+def load_resolution(name: str, path="configs/resolutions.toml") -> Resolution:
+    data = read_toml(path)
+    if name not in data:
+        raise ConfigError(f"resolution = {name!r}: allowed {', '.join(data)}")
+    return Resolution(name, **check_table(f"{path}: {name}", data[name], RESOLUTION_FIELDS))

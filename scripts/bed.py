@@ -1,0 +1,179 @@
+"""Scene: a settled, levelled soil bed, saved once and loaded by every other scene.
+
+    .venv/bin/python scripts/bed.py --soil clay --resolution default --size 200,200,150 --seed 1
+
+Steps: a random cloud in a walled box; gravity deposition with softer contacts (young/4) and damping 0.4,
+without cohesion, until the unbalanced force is below SETTLE_UNBALANCED; levelling (particles whose centre is
+above the bed depth are removed); a second settling at the working modulus; porosity n measured in the
+interior; then the grain density is set to ρ_d(1 + w)/(1 - n) so that the bed weighs what the moist field
+soil of Table 2 weighs at its dry bulk density ρ_d and moisture w. Cohesion is switched on by the scenes
+that use the bed, so calibrating cohesion never re-settles a bed.
+
+Beds are keyed by soil (its settling parameters), resolution, size and seed: results/beds/<key>.npz + .json.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from analysis.config import ROOT, ConfigError, Field, load_resolution, load_soil  # noqa: E402
+from analysis.io import atomic_write  # noqa: E402
+
+BED_DIR = ROOT / "results/beds"
+SETTLE_UNBALANCED = 0.01     # settled when mean unbalanced force / mean contact force falls below this
+SETTLE_MIN_TIME = 0.05       # s of deposition before the criterion is checked
+SETTLE_MAX_TIME = 3.0        # s; a bed that does not settle by then is an error, not a result
+CLOUD_FRACTION = 0.30        # solid fraction of the initial random cloud
+SIZE_FIELDS = {"length": Field(0.02, 3.0, unit="m"), "width": Field(0.02, 1.0, unit="m"), "depth": Field(0.02, 0.5, unit="m")}
+
+
+def bed_key(soil, res, size, seed: int) -> str:
+    params = {"soil": soil.name, **soil.settling_key(), "young": soil.young, "radius": res.radius,
+              "spread": res.spread, "size_m": [round(s, 6) for s in size], "seed": seed, "version": 1}
+    digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
+    L, W, D = (round(1000 * s) for s in size)
+    return f"{soil.name}-{res.name}-{L}x{W}x{D}-s{seed}-{digest}"
+
+
+def check_size(size) -> tuple:
+    if len(size) != 3:
+        raise ConfigError(f"size = {size!r}: give length,width,depth in mm")
+    return tuple(SIZE_FIELDS[k].check(f"bed.{k}", v) for k, v in zip(SIZE_FIELDS, size))
+
+
+def settle(O, utils, max_time: float, label: str, log):
+    """Run until the unbalanced force falls below SETTLE_UNBALANCED; stop with a diagnostic otherwise."""
+    t_end = O.time + max_time
+    t_min = O.time + SETTLE_MIN_TIME
+    wall0 = time.time()
+    while True:
+        O.run(500, True)
+        ub = utils.unbalancedForce()
+        if not math.isfinite(ub):
+            raise RuntimeError(f"{label}: unbalanced force is {ub} at t = {O.time:.3f} s (numerical blow-up)")
+        log(f"{label}: t={O.time:.3f} s  unbalanced={ub:.4f}  steps={O.iter}  wall={time.time() - wall0:.0f} s")
+        if O.time > t_min and ub < SETTLE_UNBALANCED:
+            return ub
+        if O.time > t_end:
+            raise RuntimeError(f"{label}: not settled after {max_time} s simulated (unbalanced {ub:.3f} > {SETTLE_UNBALANCED})")
+
+
+def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int = 2, quiet: bool = False,
+          bed_dir: Path = BED_DIR) -> Path:
+    """Build (or find) the bed; returns the .npz path. All checks run before YADE starts."""
+    soil, res = load_soil(soil_name), load_resolution(resolution)
+    size = check_size([s / 1000.0 for s in size_mm])
+    key = bed_key(soil, res, size, seed)
+    out = Path(bed_dir) / f"{key}.npz"
+    if out.exists() and out.with_suffix(".json").exists():
+        return out
+    log = (lambda *a: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+
+    from scripts.yadeboot import boot
+    boot(threads)
+    import numpy as np
+    from yade import O, Sphere, pack, utils
+    from scripts import soil as part
+
+    wall0 = time.time()
+    O.reset()
+    L, W, D = size
+    r = res.radius
+    mean_volume = 4 / 3 * math.pi * r ** 3 * (1 + res.spread ** 2)        # E[r³] of a uniform spread
+    n_target = int(1.12 * L * W * D * 0.45 / mean_volume)                  # 0.45 solid + levelling margin
+    cloud_h = 1.12 * D * 0.45 / CLOUD_FRACTION + 2 * r
+    settle_mat = O.materials.append(part.soil_material(soil, density=2650.0, young=soil.young / 4, cohesive=False))
+    steel = O.materials.append(part.steel_material(soil))
+    t = 0.02
+    walls = [((L / 2, W / 2, -t), (L / 2 + t, W / 2 + t, t))]
+    for c, e in (((-t, W / 2, cloud_h / 2), (t, W / 2 + t, cloud_h / 2 + t)), ((L + t, W / 2, cloud_h / 2), (t, W / 2 + t, cloud_h / 2 + t)),
+                 ((L / 2, -t, cloud_h / 2), (L / 2 + t, t, cloud_h / 2 + t)), ((L / 2, W + t, cloud_h / 2), (L / 2 + t, t, cloud_h / 2 + t))):
+        walls.append((c, e))
+    for c, e in walls:
+        O.bodies.append(utils.box(c, e, fixed=True, material=steel))
+    sp = pack.SpherePack()
+    sp.makeCloud((0, 0, 0), (L, W, cloud_h), rMean=r, rRelFuzz=res.spread, num=n_target, seed=seed)
+    sp.toSimulation(material=settle_mat)
+    log(f"bed {key}: {len(sp)} particles in the cloud (asked {n_target})")
+    O.engines = part.engines(damping=0.4, cohesion_on_new_contacts=False)
+    O.dt = 0.5 * utils.PWaveTimeStep()
+    settle(O, utils, SETTLE_MAX_TIME, "deposition", log)
+
+    removed = [b.id for b in O.bodies if isinstance(b.shape, Sphere) and b.state.pos[2] > D]
+    for i in removed:
+        O.bodies.erase(i)
+    O.materials[settle_mat].young = soil.young                            # working stiffness from here on
+    O.interactions.clear()                                                # contacts re-form with the new modulus
+    O.dt = 0.5 * utils.PWaveTimeStep()
+    settle(O, utils, SETTLE_MAX_TIME, "levelled", log)
+
+    spheres = [b for b in O.bodies if isinstance(b.shape, Sphere)]
+    pos = np.array([tuple(b.state.pos) for b in spheres])
+    rad = np.array([b.shape.radius for b in spheres])
+    if not np.all(np.isfinite(pos)) or (pos[:, 2] < -r).any():
+        raise RuntimeError("bed: particles left the box or became NaN while settling")
+    n = interior_porosity(pos, rad, L, W, D, r)
+    grain_density = soil.wet_density / (1.0 - n)
+    meta = {"key": key, "soil": soil.name, "resolution": res.name, "radius": r, "spread": res.spread,
+            "size_m": list(size), "seed": seed, "particles": int(len(rad)), "removed_levelling": len(removed),
+            "porosity": n, "grain_density": grain_density, "wet_bulk_density": grain_density * (1 - n),
+            "dry_bulk_density": grain_density * (1 - n) / (1 + soil.moisture),
+            "target_dry_bulk_density": soil.bulk_density,
+            "whole_bed_dry_bulk_density": grain_density * float(np.sum(4 / 3 * np.pi * rad ** 3)) / (L * W * D) / (1 + soil.moisture), "surface_z": float(np.max(pos[:, 2] + rad)),
+            "settle_unbalanced": SETTLE_UNBALANCED, "steps": int(O.iter), "sim_time_s": O.time,
+            "wall_s": time.time() - wall0, "threads": threads, "particle_steps": int(O.iter) * int(len(rad))}
+    tmp = out.with_name(f".{out.stem}.tmp.npz")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(tmp, pos=pos, radius=rad)
+    tmp.replace(out)
+    atomic_write(out.with_suffix(".json"), json.dumps(meta, indent=1))
+    log(f"bed {key}: {len(rad)} particles, porosity {n:.3f}, grain density {grain_density:.0f} kg/m3, "
+        f"{meta['wall_s']:.0f} s wall")
+    return out
+
+
+def interior_porosity(pos, rad, L, W, D, r, n_points: int = 200000, seed: int = 0) -> float:
+    """Porosity by Monte Carlo points in the interior (2 mean radii from walls, bottom and surface)."""
+    import numpy as np
+    from scipy.spatial import cKDTree
+    m = 2 * r
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform([m, m, m], [L - m, W - m, D - 2 * m], size=(n_points, 3))
+    tree = cKDTree(pos)
+    inside = np.zeros(n_points, bool)
+    for k, idx in enumerate(tree.query(pts, k=8)[1].T):
+        inside |= np.linalg.norm(pts - pos[idx], axis=1) < rad[idx]
+    return float(1.0 - inside.mean())
+
+
+def load_meta(path: Path) -> dict:
+    return json.loads(Path(path).with_suffix(".json").read_text())
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--soil", default="clay")
+    p.add_argument("--resolution", default="default")
+    p.add_argument("--size", default="200,200,150", help="length,width,depth in mm")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--bed-dir", default=str(BED_DIR))
+    a = p.parse_args(argv)
+    try:
+        size = [float(s) for s in a.size.split(",")]
+        path = build(a.soil, a.resolution, size, a.seed, a.threads, bed_dir=Path(a.bed_dir))
+    except (ConfigError, ValueError) as e:
+        print(f"bed: {e}", file=sys.stderr)
+        return 2
+    print(json.dumps(load_meta(path)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

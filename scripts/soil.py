@@ -1,0 +1,50 @@
+"""Scene part: the moist-soil contact physics (YADE CohFrictMat family), shared by every scene.
+
+Cohesion is a bond strength in Pa over each contact's cross-section π·r_min², so a bond's force scales with
+the particle size and the bed's macroscopic cohesion does not depend on the resolution to first order.
+`Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(setCohesionOnNewContacts=True)` bonds every new contact, so soil
+that a punch has broken re-adheres where it is pressed together (as moist soil does), while `fragile`
+bonds, once broken, leave friction only. Rolling resistance (`momentRotationLaw`, alphaKr, etaRoll) stands
+in for grain angularity.
+"""
+import math
+
+from yade import (CohFrictMat, ForceResetter, InsertionSortCollider, InteractionLoop, NewtonIntegrator,
+                  Bo1_Sphere_Aabb, Bo1_Box_Aabb, Bo1_Facet_Aabb, Ig2_Sphere_Sphere_ScGeom6D,
+                  Ig2_Box_Sphere_ScGeom6D, Ig2_Facet_Sphere_ScGeom6D, Ip2_CohFrictMat_CohFrictMat_CohFrictPhys,
+                  Law2_ScGeom6D_CohFrictPhys_CohesionMoment)
+
+GRAVITY = (0.0, 0.0, -9.81)
+STEEL_SOIL_FRICTION_DEG = 25.0   # soil on polished steel, typical 20-30 deg
+
+
+def soil_material(soil, density: float, young: float | None = None, cohesive: bool = True):
+    """The soil's particle material; `young` overrides the modulus (softer while settling)."""
+    return CohFrictMat(young=young or soil.young, poisson=soil.poisson, frictionAngle=math.radians(soil.friction_deg),
+                       density=density, isCohesive=cohesive, fragile=True,
+                       normalCohesion=soil.normal_cohesion if cohesive else 0.0,
+                       shearCohesion=soil.shear_cohesion if cohesive else 0.0,
+                       momentRotationLaw=True, alphaKr=soil.rolling_stiffness, etaRoll=soil.rolling_friction,
+                       label="soil")
+
+
+def steel_material(soil):
+    """Tools and container walls: frictional, never bonded, no rolling moment."""
+    return CohFrictMat(young=soil.young, poisson=soil.poisson, frictionAngle=math.radians(STEEL_SOIL_FRICTION_DEG),
+                       density=7850.0, isCohesive=False, momentRotationLaw=False, label="steel")
+
+
+def engines(damping: float, cohesion_on_new_contacts: bool, extra=()):
+    """Contact detection, the cohesive-frictional law, and Newton's integration under gravity."""
+    return [
+        ForceResetter(),
+        InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb(), Bo1_Facet_Aabb()], label="collider"),
+        InteractionLoop(
+            [Ig2_Sphere_Sphere_ScGeom6D(), Ig2_Box_Sphere_ScGeom6D(), Ig2_Facet_Sphere_ScGeom6D()],
+            [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(setCohesionOnNewContacts=cohesion_on_new_contacts,
+                                                     label="ip2")],
+            [Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=True, always_use_moment_law=True,
+                                                       label="law")]),
+        *extra,
+        NewtonIntegrator(gravity=GRAVITY, damping=damping, label="newton"),
+    ]

@@ -1,0 +1,102 @@
+"""Soil beds and the virtual cone (issue 3), on tiny scenes; each scene runs in its own YADE process."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from analysis.config import ROOT, ConfigError, load_soil
+from analysis.io import read_table
+
+TINY = ["--resolution", "tiny", "--threads", "2"]
+
+
+def scene(script, *args):
+    """Run a scene script; return its last stdout line as JSON, or raise with its stderr."""
+    r = subprocess.run([sys.executable, str(ROOT / "scripts" / script), *args], capture_output=True, text=True,
+                       timeout=300, cwd=ROOT)
+    if r.returncode != 0:
+        raise AssertionError(f"{script} failed ({r.returncode}):\n{r.stderr[-3000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def tiny_bed(tmp_path_factory):
+    beds = tmp_path_factory.mktemp("beds")
+    meta = scene("bed.py", "--soil", "clay", "--size", "120,120,100", "--bed-dir", str(beds), *TINY)
+    return beds, meta
+
+
+def test_tiny_bed_settles_without_losing_particles(tiny_bed):
+    beds, meta = tiny_bed
+    assert meta["particles"] <= 3000
+    data = np.load(beds / f"{meta['key']}.npz")
+    pos, rad = data["pos"], data["radius"]
+    assert len(rad) == meta["particles"]
+    L, W, D = meta["size_m"]
+    assert np.all(np.isfinite(pos))
+    assert np.all((pos[:, 0] > 0) & (pos[:, 0] < L) & (pos[:, 1] > 0) & (pos[:, 1] < W) & (pos[:, 2] > 0))
+    assert pos[:, 2].max() <= D + 1e-9                      # levelled
+    assert meta["surface_z"] > D - 2 * meta["radius"]       # and full to the top
+
+
+def test_tiny_bed_reaches_target_density(tiny_bed):
+    """Bulk density measured independently: grain mass inside a central column over its volume."""
+    beds, meta = tiny_bed
+    soil = load_soil("clay")
+    data = np.load(beds / f"{meta['key']}.npz")
+    pos, rad = data["pos"], data["radius"]
+    L, W, D = meta["size_m"]
+    m = 2 * meta["radius"]
+    inside = ((pos[:, 0] > m) & (pos[:, 0] < L - m) & (pos[:, 1] > m) & (pos[:, 1] < W - m)
+              & (pos[:, 2] > m) & (pos[:, 2] < D - m))
+    volume = (L - 2 * m) * (W - 2 * m) * (D - 2 * m)        # centres inside: whole spheres counted, so ± a shell
+    dry = meta["grain_density"] * np.sum(4 / 3 * np.pi * rad[inside] ** 3) / volume / (1 + soil.moisture)
+    assert dry == pytest.approx(soil.bulk_density, rel=0.08)
+    assert 0.3 < meta["porosity"] < 0.65
+
+
+def test_bed_is_cached_by_its_key(tiny_bed):
+    beds, meta = tiny_bed
+    again = scene("bed.py", "--soil", "clay", "--size", "120,120,100", "--bed-dir", str(beds), *TINY)
+    assert again["key"] == meta["key"] and again["wall_s"] == meta["wall_s"]     # loaded, not settled again
+
+
+@pytest.fixture(scope="module")
+def test_bed(tmp_path_factory):
+    """About 2500 particles of r = 3.5 mm: a 25.7 mm cone is 3.7 particle diameters, enough for a depth trend."""
+    beds = tmp_path_factory.mktemp("beds")
+    scene("bed.py", "--soil", "clay", "--size", "100,100,100", "--bed-dir", str(beds), "--resolution", "test")
+    return beds
+
+
+def cone(tmp_path, beds, cohesion):
+    summary = scene("cone.py", "--soil", "clay", "--size", "100,100,100", "--bed-dir", str(beds), "--out", str(tmp_path),
+                    "--resolution", "test", "--cone-scale", "2", "--depth", "35", "--speed", "0.3",
+                    "--cohesion", str(cohesion))
+    profile = read_table(tmp_path / f"{summary['bed']}-c2-v0.3-coh{summary['cohesion_pa']:g}.csv")
+    return summary, profile
+
+
+def test_cone_resistance_grows_with_depth_and_cohesion(test_bed, tmp_path):
+    (weak, weak_profile), (strong, strong_profile) = cone(tmp_path, test_bed, 0.0), cone(tmp_path, test_bed, 1e5)
+    assert strong["cone_index_pa"] > 1.3 * weak["cone_index_pa"] > 0
+    cone_height = weak["cone_diameter_m"] / 2 / np.tan(np.radians(15))
+    for d in (weak_profile, strong_profile):
+        entering = d[(d.base_depth_m > -cone_height) & (d.base_depth_m < -cone_height / 2)].resistance_pa.mean()
+        below = d[(d.base_depth_m >= 0) & (d.base_depth_m <= 0.035)].resistance_pa.mean()
+        assert below > 2 * entering > 0          # the tip's first half-height vs the whole cone buried
+
+
+def test_bad_soil_config_is_refused(tmp_path):
+    bad = tmp_path / "clay.toml"
+    text = (ROOT / "configs/soils/clay.toml").read_text().replace("friction_deg = 30.0", "friction_deg = 95.0")
+    bad.write_text(text)
+    with pytest.raises(ConfigError, match=r"soil\.friction_deg = 95\.0 is out of range: allowed \[0, 60\] deg"):
+        load_soil(bad)
+    with pytest.raises(ConfigError, match="soil = 'peat'"):
+        load_soil("peat")
+    r = subprocess.run([sys.executable, str(ROOT / "scripts/bed.py"), "--soil", str(bad), *TINY],
+                       capture_output=True, text=True, timeout=60, cwd=ROOT)
+    assert r.returncode == 2 and "friction_deg = 95.0 is out of range" in r.stderr
