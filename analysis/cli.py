@@ -26,6 +26,47 @@ def cmd_theory(args) -> int:
     return 0
 
 
+def run_scene(script: str, args: list[str]) -> int:
+    """Each scene is its own YADE process (scripts/<script>), run by this same interpreter."""
+    import subprocess
+    return subprocess.call([sys.executable, str(ROOT / "scripts" / script), *args], cwd=ROOT)
+
+
+def cmd_calibrate(args) -> int:
+    from analysis import calibrate
+    lo, hi = (float(v) for v in args.cohesion_range.split(","))
+    try:
+        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi)
+    except (ValueError, RuntimeError) as e:
+        print(f"calibrate {args.soil}: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def cmd_bench(args) -> int:
+    """`bench beds`: every bed's own measured settling cost (from its metadata) with the machine."""
+    import json
+    import os
+    import platform
+    import pandas as pd
+    from analysis.io import atomic_csv, stamp
+    rows = []
+    for meta_path in sorted((ROOT / "results/beds").glob("*.json")):
+        m = json.loads(meta_path.read_text())
+        rows.append({"bed": m["key"], "soil": m["soil"], "resolution": m["resolution"], "radius_mm": 1000 * m["radius"],
+                     "size_mm": "x".join(f"{1000 * s:.0f}" for s in m["size_m"]), "particles": m["particles"],
+                     "steps": m["steps"], "wall_s": round(m["wall_s"], 1), "threads": m["threads"],
+                     "particle_steps_per_s": round(m["particle_steps"] / m["wall_s"]),
+                     "porosity": round(m["porosity"], 4), "machine": f"{platform.machine()} {os.cpu_count()} cores"})
+    if not rows:
+        print("bench: no beds in results/beds; build one with ./holes bed", file=sys.stderr)
+        return 1
+    out = ROOT / "results/bench/beds.csv"
+    atomic_csv(pd.DataFrame(rows), out, stamp("./holes bench beds"))
+    print(pd.DataFrame(rows).to_string(index=False))
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="holes", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -33,7 +74,24 @@ def main(argv=None) -> int:
     p.add_argument("--disk", default="configs/disk.toml", help="disk config (default: the seed's disk)")
     p.add_argument("--out", help="output folder (default results/theory/[disk name])")
     p.set_defaults(func=cmd_theory)
-    args = parser.parse_args(argv)
+    for name, script, text in (("bed", "bed.py", "settle and level a soil bed (cached by soil, resolution, size, seed)"),
+                               ("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)")):
+        p = sub.add_parser(name, help=text, add_help=False)
+        p.set_defaults(func=lambda a, script=script: run_scene(script, a.rest))
+    p = sub.add_parser("calibrate", help="fit a soil's cohesion to the Table 2 cone index (within 5 %)")
+    p.add_argument("--soil", required=True)
+    p.add_argument("--resolution", default="default")
+    p.add_argument("--size", default="300,300,260", help="bed length,width,depth in mm")
+    p.add_argument("--cone-scale", type=float, default=3.0)
+    p.add_argument("--cohesion-range", default="0,200000", help="lo,hi in Pa")
+    p.set_defaults(func=cmd_calibrate)
+    p = sub.add_parser("bench", help="benchmarks: `bench beds` tabulates bed settling cost")
+    p.add_argument("what", choices=["beds"])
+    p.set_defaults(func=cmd_bench)
+    args, rest = parser.parse_known_args(argv)
+    if rest and args.command not in ("bed", "cone"):
+        parser.error(f"unrecognized arguments: {' '.join(rest)}")
+    args.rest = rest
     try:
         return args.func(args)
     except ConfigError as e:

@@ -156,18 +156,26 @@ def load_meta(path: Path) -> dict:
     return json.loads(Path(path).with_suffix(".json").read_text())
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def bed_arguments(description: str, default_size: str) -> argparse.ArgumentParser:
+    """The options every scene takes to name its bed."""
+    p = argparse.ArgumentParser(description=description)
     p.add_argument("--soil", default="clay")
     p.add_argument("--resolution", default="default")
-    p.add_argument("--size", default="200,200,150", help="length,width,depth in mm")
+    p.add_argument("--size", default=default_size, help="bed length,width,depth in mm")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--threads", type=int, default=2)
-    p.add_argument("--bed-dir", default=str(BED_DIR))
-    a = p.parse_args(argv)
+    p.add_argument("--bed-dir", default=str(BED_DIR), help="where beds are kept")
+    return p
+
+
+def bed_from_args(a) -> Path:
+    return build(a.soil, a.resolution, [float(s) for s in a.size.split(",")], a.seed, a.threads, bed_dir=Path(a.bed_dir))
+
+
+def main(argv=None) -> int:
+    a = bed_arguments(__doc__.splitlines()[0], "200,200,150").parse_args(argv)
     try:
-        size = [float(s) for s in a.size.split(",")]
-        path = build(a.soil, a.resolution, size, a.seed, a.threads, bed_dir=Path(a.bed_dir))
+        path = bed_from_args(a)
     except (ConfigError, ValueError) as e:
         print(f"bed: {e}", file=sys.stderr)
         return 2

@@ -29,6 +29,7 @@ S313_BASE_DIAMETER = 0.01283     # m
 S313_SHAFT_RATIO = 9.53 / 12.83
 S313_APEX_DEG = 30.0
 S313_SPEED = 0.030               # m/s
+APEX_SPHERE_RATIO = 0.2          # blunt-tip sphere radius / cone base radius
 CI_DEPTH = 0.150                 # m: the field's cone index is the mean over 0-150 mm
 CONE_FIELDS = {"cone_scale": Field(0.5, 20.0, meaning="cone size / ASABE S313 size"),
                "speed": Field(0.001, 2.0, lo_open=True, unit="m/s", meaning="penetration speed")}
@@ -73,9 +74,18 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
                  ((L / 2, W + t, H / 2), (L / 2 + t, t, H / 2))):
         O.bodies.append(utils.box(c, e, fixed=True, material=steel))
     x0, y0, z_tip0 = L / 2, W / 2, surface + 0.005
-    flip = Quaternion((1, 0, 0), math.pi)                 # facetCone's narrow end down
-    cone_ids = O.bodies.append(geom.facetCone((x0, y0, z_tip0 + hc / 2), Rc, 0.0, hc, orientation=flip,
-                                              segmentsNumber=24, wallMask=4, material=steel))
+    # Blunt tip: a sphere of radius a inscribed at the apex, tangent to the faces, and the facet cone cut
+    # where it touches. 24 facets meeting in one vertex would give a grain there up to 24 contacts at full
+    # stiffness, far stiffer than the P-wave time step allows.
+    half = math.radians(S313_APEX_DEG / 2)
+    a = APEX_SPHERE_RATIO * Rc
+    z_center = z_tip0 + a / math.sin(half)                 # measured from the virtual apex
+    z_cut = z_tip0 + (a / math.sin(half)) * math.cos(half) ** 2
+    flip = Quaternion((1, 0, 0), math.pi)                  # facetCone's narrow end down
+    cone_ids = list(O.bodies.append(geom.facetCone((x0, y0, (z_cut + z_tip0 + hc) / 2), Rc, a * math.cos(half),
+                                                   z_tip0 + hc - z_cut, orientation=flip, segmentsNumber=24,
+                                                   wallMask=4, material=steel)))
+    cone_ids.append(O.bodies.append(utils.sphere((x0, y0, z_center), a, fixed=True, material=steel)))
     shaft_len = depth + 0.03
     shaft_ids = O.bodies.append(geom.facetCylinder((x0, y0, z_tip0 + hc + shaft_len / 2), S313_SHAFT_RATIO * Rc,
                                                    shaft_len, segmentsNumber=16, wallMask=4, material=steel))
@@ -123,28 +133,21 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--soil", default="clay")
-    p.add_argument("--resolution", default="default")
-    p.add_argument("--size", default="200,200,260", help="bed length,width,depth in mm")
-    p.add_argument("--seed", type=int, default=1)
+    from scripts import bed
+    p = bed.bed_arguments(__doc__.splitlines()[0], "200,200,260")
     p.add_argument("--cone-scale", type=float, default=3.0)
     p.add_argument("--speed", type=float, default=0.3, help="m/s")
     p.add_argument("--cohesion", type=float, help="Pa; overrides the soil config's normal and shear cohesion")
     p.add_argument("--depth", type=float, default=CI_DEPTH * 1000, help="deepest base depth, mm (field: 150)")
-    p.add_argument("--threads", type=int, default=2)
-    p.add_argument("--bed-dir", help="where beds are kept (default results/beds)")
     p.add_argument("--out", help="where the resistance CSV goes (default results/cone)")
     a = p.parse_args(argv)
-    from scripts import bed
     try:
-        path = bed.build(a.soil, a.resolution, [float(s) for s in a.size.split(",")], a.seed, a.threads,
-                         bed_dir=Path(a.bed_dir) if a.bed_dir else bed.BED_DIR)
-        print(json.dumps(run(path, a.soil, a.cone_scale, a.speed, a.cohesion, a.threads, a.depth / 1000,
-                             out_dir=Path(a.out) if a.out else None)))
+        summary = run(bed.bed_from_args(a), a.soil, a.cone_scale, a.speed, a.cohesion, a.threads, a.depth / 1000,
+                      out_dir=Path(a.out) if a.out else None)
     except (ConfigError, ValueError) as e:
         print(f"cone: {e}", file=sys.stderr)
         return 2
+    print(json.dumps(summary))
     return 0
 
 

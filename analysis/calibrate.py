@@ -1,0 +1,109 @@
+"""The `calibrate` subcommand: adjust one soil parameter until the virtual cone index is within 5 % of
+seed 001 Table 2. Each evaluation is one cone scene (its own YADE process); every iteration is appended to
+results/calibration/<soil>.csv; the result is written back into configs/soils/<soil>.toml. Table 3 is never
+read here.
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from analysis.config import ROOT, ConfigError, load_soil
+from analysis.io import atomic_csv, atomic_write, read_table, stamp
+
+TOLERANCE = 0.05
+CALIBRATED = {"normal_cohesion": ("normal_cohesion", "shear_cohesion")}   # parameter -> keys it sets
+
+
+def bracket_search(f, target: float, lo: float, hi: float, tol: float = TOLERANCE, max_iter: int = 12, log=print):
+    """Find x in [lo, hi] with |f(x)/target - 1| <= tol for f increasing in x, by regula falsi with the
+    Illinois modification (the end kept twice has its value halved). Returns (x, f(x), history). Raises
+    ValueError, naming the value reached, when the target lies outside [f(lo), f(hi)].
+
+    >>> round(bracket_search(lambda x: 2 * x + 1, 11.0, 0.0, 10.0, log=lambda *a: None)[0], 3)
+    5.0
+    """
+    history = []
+
+    def g(x):
+        y = f(x)
+        history.append((x, y))
+        log(f"calibrate: x = {x:.4g} -> {y:.4g} (target {target:.4g})")
+        return y
+
+    for x in (lo, hi):
+        y = g(x)
+        if abs(y / target - 1) <= tol:
+            return x, y, history
+    (_, y_lo), (_, y_hi) = history
+    if y_lo > target:
+        raise ValueError(f"already {y_lo:.4g} at the lower bound {lo:.4g}, above the target {target:.4g}")
+    if y_hi < target:
+        raise ValueError(f"only {y_hi:.4g} at the upper bound {hi:.4g}, below the target {target:.4g}")
+    g_lo, g_hi, side = y_lo - target, y_hi - target, 0
+    for _ in range(max_iter):
+        x = hi - g_hi * (hi - lo) / (g_hi - g_lo)
+        y = g(x)
+        if abs(y / target - 1) <= tol:
+            return x, y, history
+        if y < target:
+            lo, g_lo = x, y - target
+            g_hi = g_hi / 2 if side == -1 else g_hi
+            side = -1
+        else:
+            hi, g_hi = x, y - target
+            g_lo = g_lo / 2 if side == 1 else g_lo
+            side = 1
+    closest = min(history, key=lambda h: abs(h[1] - target))
+    raise ValueError(f"no value within {tol:.0%} after {max_iter} steps; closest x = {closest[0]:.4g} -> {closest[1]:.4g}")
+
+
+def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesion: float, seed: int) -> dict:
+    r = subprocess.run([sys.executable, str(ROOT / "scripts/cone.py"), "--soil", soil, "--resolution", resolution,
+                        "--size", size, "--cone-scale", str(cone_scale), "--cohesion", str(cohesion),
+                        "--seed", str(seed)], cwd=ROOT, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError(f"cone scene failed for {soil} at cohesion {cohesion:g} Pa:\n{r.stderr[-2000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def write_back(soil: str, keys, value: float):
+    """Set `keys` = value in configs/soils/<soil>.toml, keeping its comments, then re-validate the file."""
+    path = ROOT / "configs/soils" / f"{soil}.toml"
+    text = path.read_text()
+    for key in keys:
+        text, n = re.subn(rf"^{key} = [^#\n]*?(\s*#.*)?$", lambda m: f"{key} = {value:.4g}{m.group(1) or ''}", text,
+                          count=1, flags=re.M)
+        if n != 1:
+            raise ConfigError(f"{path}: no line `{key} = ...` to update")
+    atomic_write(path, text)
+    load_soil(soil)
+
+
+def run(soil: str, resolution: str, size: str, cone_scale: float, lo: float, hi: float, seed: int = 1) -> float:
+    target = load_soil(soil).cone_index
+    out = ROOT / "results/calibration" / f"{soil}.csv"
+    done = read_table(out) if out.exists() else pd.DataFrame()
+    rows = [done] if len(done) else []
+    note = stamp(f"./holes calibrate --soil {soil} --resolution {resolution} --size {size} --cone-scale {cone_scale:g}")
+
+    def f(cohesion):
+        s = cone_index(soil, resolution, size, cone_scale, cohesion, seed)
+        rows.append(pd.DataFrame([{"iteration": sum(len(r) for r in rows) + 1, "normal_cohesion_pa": cohesion,
+                                   "cone_index_kpa": s["cone_index_pa"] / 1000, "target_kpa": target / 1000,
+                                   "error": s["cone_index_pa"] / target - 1, "bed": s["bed"],
+                                   "particles": s["particles"], "wall_s": round(s["wall_s"], 1)}]))
+        atomic_csv(pd.concat(rows, ignore_index=True), out, note)          # every iteration, as it finishes
+        return s["cone_index_pa"]
+
+    x, y, _ = bracket_search(f, target, lo, hi, log=lambda m: print(m, file=sys.stderr, flush=True))
+    write_back(soil, CALIBRATED["normal_cohesion"], x)
+    print(f"calibrate {soil}: normal_cohesion = shear_cohesion = {x:.4g} Pa gives {y / 1000:.1f} kPa "
+          f"(target {target / 1000:.0f} kPa, {100 * (y / target - 1):+.1f} %)")
+    return x
