@@ -18,7 +18,7 @@ from analysis.config import ROOT, ConfigError, load_soil
 from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
 TOLERANCE = 0.05
-CALIBRATED = {"normal_cohesion": ("normal_cohesion", "shear_cohesion")}   # parameter -> keys it sets
+COHESION_KEYS = ("normal_cohesion", "shear_cohesion")   # calibrated together, kept equal
 
 
 def bracket_search(f, target: float, lo: float, hi: float, tol: float = TOLERANCE, max_iter: int = 12, log=print):
@@ -103,7 +103,7 @@ def run(soil: str, resolution: str, size: str, cone_scale: float, lo: float, hi:
         return s["cone_index_pa"]
 
     x, y, _ = bracket_search(f, target, lo, hi, log=lambda m: print(m, file=sys.stderr, flush=True))
-    write_back(soil, CALIBRATED["normal_cohesion"], x)
+    write_back(soil, COHESION_KEYS, x)
     print(f"calibrate {soil}: normal_cohesion = shear_cohesion = {x:.4g} Pa gives {y / 1000:.1f} kPa "
           f"(target {target / 1000:.0f} kPa, {100 * (y / target - 1):+.1f} %)")
     return x

@@ -90,13 +90,7 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
     cloud_h = 1.12 * D * 0.45 / CLOUD_FRACTION + 2 * r
     settle_mat = O.materials.append(part.soil_material(soil, density=2650.0, young=soil.young / 4, cohesive=False))
     steel = O.materials.append(part.steel_material(soil))
-    t = 0.02
-    walls = [((L / 2, W / 2, -t), (L / 2 + t, W / 2 + t, t))]
-    for c, e in (((-t, W / 2, cloud_h / 2), (t, W / 2 + t, cloud_h / 2 + t)), ((L + t, W / 2, cloud_h / 2), (t, W / 2 + t, cloud_h / 2 + t)),
-                 ((L / 2, -t, cloud_h / 2), (L / 2 + t, t, cloud_h / 2 + t)), ((L / 2, W + t, cloud_h / 2), (L / 2 + t, t, cloud_h / 2 + t))):
-        walls.append((c, e))
-    for c, e in walls:
-        O.bodies.append(utils.box(c, e, fixed=True, material=steel))
+    O.bodies.append(part.container(L, W, cloud_h, steel))
     sp = pack.SpherePack()
     sp.makeCloud((0, 0, 0), (L, W, cloud_h), rMean=r, rRelFuzz=res.spread, num=n_target, seed=seed)
     sp.toSimulation(material=settle_mat)

@@ -14,7 +14,7 @@ Writes results/cone/<bed key>-c<scale>-v<speed>-coh<cohesion>.csv (depth, resist
 """
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -42,7 +42,7 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     speed = CONE_FIELDS["speed"].check("cone.speed", speed)
     soil = load_soil(soil_name)
     if cohesion is not None:
-        soil = soil.__class__(**{**soil.__dict__, "normal_cohesion": cohesion, "shear_cohesion": cohesion})
+        soil = dataclasses.replace(soil, normal_cohesion=cohesion, shear_cohesion=cohesion)
     from scripts.bed import load_meta
     meta = load_meta(bed_path)
     L, W, D = meta["size_m"]
@@ -67,12 +67,7 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     O.bodies.append([utils.sphere(tuple(p), r, material=mat) for p, r in zip(data["pos"], data["radius"])])
     n_particles = len(data["radius"])
     surface = float(np.percentile(data["pos"][:, 2] + data["radius"], 95))    # level of the upper grains
-    t = 0.02
-    H = surface + 0.05
-    for c, e in (((L / 2, W / 2, -t), (L / 2 + t, W / 2 + t, t)), ((-t, W / 2, H / 2), (t, W / 2 + t, H / 2)),
-                 ((L + t, W / 2, H / 2), (t, W / 2 + t, H / 2)), ((L / 2, -t, H / 2), (L / 2 + t, t, H / 2)),
-                 ((L / 2, W + t, H / 2), (L / 2 + t, t, H / 2))):
-        O.bodies.append(utils.box(c, e, fixed=True, material=steel))
+    O.bodies.append(part.container(L, W, surface + 0.05, steel))
     x0, y0, z_tip0 = L / 2, W / 2, surface + 0.005
     # Blunt tip: a sphere of radius a inscribed at the apex, tangent to the faces, and the facet cone cut
     # where it touches. 24 facets meeting in one vertex would give a grain there up to 24 contacts at full
@@ -89,7 +84,7 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     shaft_len = depth + 0.03
     shaft_ids = O.bodies.append(geom.facetCylinder((x0, y0, z_tip0 + hc + shaft_len / 2), S313_SHAFT_RATIO * Rc,
                                                    shaft_len, segmentsNumber=16, wallMask=4, material=steel))
-    tool = list(cone_ids) + list(shaft_ids)
+    tool = cone_ids + list(shaft_ids)
     rows = []
 
     def record():
@@ -100,10 +95,9 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
             raise RuntimeError(f"cone: force is {fz} at t = {O.time:.4f} s (numerical blow-up)")
         rows.append((base_depth, fz / (math.pi * Rc * Rc)))
 
-    O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, extra=[
+    O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[
         TranslationEngine(ids=tool, translationAxis=(0, 0, -1), velocity=speed, label="push")])
     O.dt = 0.5 * utils.PWaveTimeStep()
-    O.engines[2].physDispatcher.functors[0].setCohesionNow = True       # bond the settled contacts once
     n_steps = int(((surface - z_tip0) + hc + depth + 0.005) / speed / O.dt) + 1
     report = max(1, n_steps // 20)
     while O.iter < n_steps:

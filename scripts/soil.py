@@ -34,15 +34,26 @@ def steel_material(soil):
                        density=7850.0, isCohesive=False, momentRotationLaw=False, label="steel")
 
 
-def engines(damping: float, cohesion_on_new_contacts: bool, extra=()):
-    """Contact detection, the cohesive-frictional law, and Newton's integration under gravity."""
+def container(L: float, W: float, H: float, material, t: float = 0.02) -> list:
+    """A fixed floor at z = 0 and four side walls of height H round the box [0, L] × [0, W] (YADE boxes)."""
+    from yade import utils
+    boxes = [((L / 2, W / 2, -t), (L / 2 + t, W / 2 + t, t))]
+    sides = (((-t, W / 2), (t, W / 2 + t)), ((L + t, W / 2), (t, W / 2 + t)),       # x = 0 and x = L
+             ((L / 2, -t), (L / 2 + t, t)), ((L / 2, W + t), (L / 2 + t, t)))       # y = 0 and y = W
+    boxes += [((*centre, H / 2), (*half, H / 2 + t)) for centre, half in sides]
+    return [utils.box(c, e, fixed=True, material=material) for c, e in boxes]
+
+
+def engines(damping: float, cohesion_on_new_contacts: bool, cohesion_now: bool = False, extra=()):
+    """Contact detection, the cohesive-frictional law, and Newton's integration under gravity.
+    `cohesion_now` bonds the contacts that exist at the first step (a settled bed)."""
     return [
         ForceResetter(),
         InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb(), Bo1_Facet_Aabb()], label="collider"),
         InteractionLoop(
             [Ig2_Sphere_Sphere_ScGeom6D(), Ig2_Box_Sphere_ScGeom6D(), Ig2_Facet_Sphere_ScGeom6D()],
             [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(setCohesionOnNewContacts=cohesion_on_new_contacts,
-                                                     label="ip2")],
+                                                     setCohesionNow=cohesion_now, label="ip2")],
             [Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=True, always_use_moment_law=True,
                                                        label="law")]),
         *extra,
