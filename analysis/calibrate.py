@@ -64,10 +64,13 @@ def bracket_search(f, target: float, lo: float, hi: float, tol: float = TOLERANC
     raise ValueError(f"no value within {tol:.0%} after {max_iter} steps; closest x = {closest[0]:.4g} -> {closest[1]:.4g}")
 
 
-def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesion: float, seed: int) -> dict:
+def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesion: float, seed: int = 1,
+               speed: float = 0.5, threads: int = 2, extra=()) -> dict:
+    """One cone scene in its own YADE process; returns its summary."""
     r = subprocess.run([sys.executable, str(ROOT / "scripts/cone.py"), "--soil", soil, "--resolution", resolution,
                         "--size", size, "--cone-scale", str(cone_scale), "--cohesion", str(cohesion),
-                        "--seed", str(seed)], cwd=ROOT, capture_output=True, text=True)
+                        "--seed", str(seed), "--speed", str(speed), "--threads", str(threads), *extra],
+                       cwd=ROOT, capture_output=True, text=True)
     if r.returncode != 0:
         raise RuntimeError(f"cone scene failed for {soil} at cohesion {cohesion:g} Pa:\n{r.stderr[-2000:]}")
     return json.loads(r.stdout.strip().splitlines()[-1])
@@ -86,19 +89,25 @@ def write_back(soil: str, keys, value: float):
     load_soil(soil)
 
 
-def run(soil: str, resolution: str, size: str, cone_scale: float, lo: float, hi: float, seed: int = 1) -> float:
-    target = load_soil(soil).cone_index
+def run(soil: str, resolution: str, size: str, cone_scale: float, lo: float, hi: float, seed: int = 1,
+        speed: float = 0.5, threads: int = 2) -> float:
+    soil_cfg = load_soil(soil)
+    target = soil_cfg.cone_index
     out = ROOT / "results/calibration" / f"{soil}.csv"
     done = read_table(out) if out.exists() else pd.DataFrame()
     rows = [done] if len(done) else []
-    note = stamp(f"./holes calibrate --soil {soil} --resolution {resolution} --size {size} --cone-scale {cone_scale:g}")
+    note = stamp(f"./holes calibrate --soil {soil} --resolution {resolution} --size {size} --cone-scale {cone_scale:g} "
+                 f"--speed {speed:g}")
 
     def f(cohesion):
-        s = cone_index(soil, resolution, size, cone_scale, cohesion, seed)
+        s = cone_index(soil, resolution, size, cone_scale, cohesion, seed, speed, threads)
         rows.append(pd.DataFrame([{"iteration": sum(len(r) for r in rows) + 1, "normal_cohesion_pa": cohesion,
                                    "cone_index_kpa": s["cone_index_pa"] / 1000, "target_kpa": target / 1000,
                                    "error": s["cone_index_pa"] / target - 1, "bed": s["bed"],
-                                   "particles": s["particles"], "wall_s": round(s["wall_s"], 1)}]))
+                                   "particles": s["particles"], "cone_to_particle": round(s["cone_to_particle"], 2),
+                                   "speed_m_s": speed, "friction_deg": soil_cfg.friction_deg,
+                                   "rolling_friction": soil_cfg.rolling_friction, "wall_s": round(s["wall_s"], 1),
+                                   "threads": threads}]))
         atomic_csv(pd.concat(rows, ignore_index=True), out, note)          # every iteration, as it finishes
         return s["cone_index_pa"]
 

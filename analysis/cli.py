@@ -36,20 +36,51 @@ def cmd_calibrate(args) -> int:
     from analysis import calibrate
     lo, hi = (float(v) for v in args.cohesion_range.split(","))
     try:
-        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi)
+        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, speed=args.speed,
+                      threads=args.threads)
     except (ValueError, RuntimeError) as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1
     return 0
 
 
+def cmd_report(args) -> int:
+    from analysis import run_report
+    for path in run_report.run(args.folder):
+        print(f"wrote {path}")
+    return 0
+
+
+def cmd_calibration_report(args) -> int:
+    from analysis import calibration_report
+    print(calibration_report.run().to_string(index=False))
+    return 0
+
+
 def cmd_bench(args) -> int:
-    """`bench beds`: every bed's own measured settling cost (from its metadata) with the machine."""
+    """`bench beds`: every bed's own measured settling cost (from its metadata) with the machine;
+    `bench runs`: every finished disk run's cost, and the wall time per 200 mm of travel (one hole)."""
     import json
     import os
     import platform
     import pandas as pd
     from analysis.io import atomic_csv, stamp
+    machine = f"{platform.machine()} {os.cpu_count()} cores"
+    if args.what == "runs":
+        rows = []
+        for path in sorted((ROOT / "results/runs").glob("*/summary.json")):
+            m = json.loads(path.read_text())
+            rows.append({"run": m["id"], "soil": m["soil"], "preset": m["preset"], "mode": m["mode"],
+                         "particles": m["particles"], "steps": m["steps"], "dt_s": m["dt"],
+                         "travel_mm": round(m["travel_mm"]), "wall_s": round(m["wall_s"]), "threads": m["threads"],
+                         "particle_steps_per_s": round(m["particle_steps_per_s"]),
+                         "wall_s_per_hole_200mm": round(m["wall_s"] * 200 / m["travel_mm"]), "machine": machine})
+        if not rows:
+            print("bench: no finished runs in results/runs; make one with ./holes run", file=sys.stderr)
+            return 1
+        atomic_csv(pd.DataFrame(rows), ROOT / "results/bench/runs.csv", stamp("./holes bench runs"))
+        print(pd.DataFrame(rows).to_string(index=False))
+        return 0
     rows = []
     for meta_path in sorted((ROOT / "results/beds").glob("*.json")):
         m = json.loads(meta_path.read_text())
@@ -57,7 +88,7 @@ def cmd_bench(args) -> int:
                      "size_mm": "x".join(f"{1000 * s:.0f}" for s in m["size_m"]), "particles": m["particles"],
                      "steps": m["steps"], "wall_s": round(m["wall_s"], 1), "threads": m["threads"],
                      "particle_steps_per_s": round(m["particle_steps"] / m["wall_s"]),
-                     "porosity": round(m["porosity"], 4), "machine": f"{platform.machine()} {os.cpu_count()} cores"})
+                     "porosity": round(m["porosity"], 4), "machine": machine})
     if not rows:
         print("bench: no beds in results/beds; build one with ./holes bed", file=sys.stderr)
         return 1
@@ -75,21 +106,29 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="output folder (default results/theory/[disk name])")
     p.set_defaults(func=cmd_theory)
     for name, script, text in (("bed", "bed.py", "settle and level a soil bed (cached by soil, resolution, size, seed)"),
-                               ("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)")):
+                               ("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)"),
+                               ("run", "disk.py", "the rolling punch disk with press sleeves in a soil strip")):
         p = sub.add_parser(name, help=text, add_help=False)
         p.set_defaults(func=lambda a, script=script: run_scene(script, a.rest))
     p = sub.add_parser("calibrate", help="fit a soil's cohesion to the Table 2 cone index (within 5 %)")
     p.add_argument("--soil", required=True)
-    p.add_argument("--resolution", default="default")
-    p.add_argument("--size", default="300,300,260", help="bed length,width,depth in mm")
+    p.add_argument("--resolution", default="quick")
+    p.add_argument("--size", default="200,200,280", help="bed length,width,depth in mm")
     p.add_argument("--cone-scale", type=float, default=3.0)
+    p.add_argument("--speed", type=float, default=0.5, help="cone speed, m/s")
+    p.add_argument("--threads", type=int, default=2)
     p.add_argument("--cohesion-range", default="0,200000", help="lo,hi in Pa")
     p.set_defaults(func=cmd_calibrate)
-    p = sub.add_parser("bench", help="benchmarks: `bench beds` tabulates bed settling cost")
-    p.add_argument("what", choices=["beds"])
+    p = sub.add_parser("report", help="pictures of one run: the holes and the tool's forces")
+    p.add_argument("folder", help="results/runs/<id>")
+    p.set_defaults(func=cmd_report)
+    p = sub.add_parser("calibration-report", help="table and resistance plot of the accepted calibrations")
+    p.set_defaults(func=cmd_calibration_report)
+    p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs")
+    p.add_argument("what", choices=["beds", "runs"])
     p.set_defaults(func=cmd_bench)
     args, rest = parser.parse_known_args(argv)
-    if rest and args.command not in ("bed", "cone"):
+    if rest and args.command not in ("bed", "cone", "run"):
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
     args.rest = rest
     try:

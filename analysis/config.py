@@ -158,11 +158,86 @@ def disk_from_dict(values: dict, where: str = "disk", name: str = "disk") -> Dis
 
 
 def load_disk(path) -> Disk:
-    data = split_sections(path, read_toml(path), {"disk", "source"})
+    data = split_sections(path, read_toml(path), DISK_SECTIONS)
     if "disk" not in data:
         raise ConfigError(f"{path}: missing section [disk]")
     check_sources(path, data.get("source", {}), DISK_FIELDS)
     return disk_from_dict(data["disk"], f"{path}: disk", Path(path).stem)
+
+
+DISK_SECTIONS = {"disk", "source", "sleeve", "sleeve_source"}
+SLEEVE_FIELDS = {
+    "outer_diameter": positive(meaning="outer diameter of the annular press plate"),
+    "rest_from_tip": positive(meaning="plate face to punch tip with the spring at its stop"),
+    "travel": positive(meaning="how far the plate can be pushed back along the punch"),
+    "stiffness": Field(0.0, 1e4, unit="N/mm", meaning="return spring rate"),
+    "preload": Field(0.0, 1e5, unit="N", meaning="spring force at the stop"),
+    "mass": Field(0.0, 100.0, lo_open=True, unit="kg", meaning="moving mass of the plate"),
+    "damping_ratio": Field(0.0, 2.0, meaning="viscous damping of the plate's axial motion / critical"),
+}
+
+
+@dataclass(frozen=True)
+class Sleeve:
+    """The spring-loaded press sleeve on each punch (seed 001 §1.2, Fig. 2); lengths in mm, forces in N."""
+    outer_diameter: float
+    rest_from_tip: float
+    travel: float
+    stiffness: float
+    preload: float
+    mass: float
+    damping_ratio: float
+
+
+def sleeve_from_dict(values: dict, disk: Disk, where: str = "sleeve") -> Sleeve:
+    v = check_table(where, values, SLEEVE_FIELDS)
+    if v["outer_diameter"] <= disk.D:
+        raise ConfigError(f"{where}.outer_diameter = {v['outer_diameter']:g} is out of range: allowed (D = {disk.D:g}, inf) mm")
+    if not disk.h < v["rest_from_tip"] < disk.L3:
+        raise ConfigError(f"{where}.rest_from_tip = {v['rest_from_tip']:g} is out of range: allowed (h = {disk.h:g}, "
+                          f"L3 = {disk.L3:g}) mm (the plate sits on the cylinder)")
+    if v["rest_from_tip"] + v["travel"] > disk.L3:
+        raise ConfigError(f"{where}.travel = {v['travel']:g} is out of range: allowed (0, L3 - rest_from_tip = "
+                          f"{disk.L3 - v['rest_from_tip']:g}] mm (the plate would pass the mounting plate)")
+    return Sleeve(**v)
+
+
+def load_sleeve(path, disk: Disk | None = None) -> Sleeve:
+    data = split_sections(path, read_toml(path), DISK_SECTIONS)
+    if "sleeve" not in data:
+        raise ConfigError(f"{path}: missing section [sleeve]")
+    check_sources(path, data.get("sleeve_source", {}), SLEEVE_FIELDS)
+    return sleeve_from_dict(data["sleeve"], disk or load_disk(path), f"{path}: sleeve")
+
+
+# --- scene presets (configs/presets.toml) ---------------------------------------------------------------
+
+PRESET_FIELDS = {
+    "resolution": Field(kind=str, meaning="a section of configs/resolutions.toml"),
+    "width": Field(40.0, 1000.0, unit="mm", meaning="bed width across the travel"),
+    "depth": Field(40.0, 500.0, unit="mm", meaning="bed depth"),
+    "holes": Field(1, 20, kind=int, meaning="consecutive holes to form"),
+    "dt_safety": Field(0.05, 1.0, meaning="time step / P-wave critical time step"),
+}
+
+
+@dataclass(frozen=True)
+class Preset:
+    name: str
+    resolution: str
+    width: float
+    depth: float
+    holes: int
+    dt_safety: float
+
+
+def load_preset(name: str, path="configs/presets.toml") -> Preset:
+    data = read_toml(path)
+    if name not in data:
+        raise ConfigError(f"preset = {name!r}: allowed {', '.join(data)}")
+    v = check_table(f"{path}: {name}", data[name], PRESET_FIELDS)
+    load_resolution(v["resolution"])
+    return Preset(name, **v)
 
 
 def check_sources(path, sources: dict, schema: dict):
@@ -261,6 +336,30 @@ def load_soil(name_or_path) -> Soil:
     data = split_sections(path, read_toml(path), {"soil", "source"})
     check_sources(path, data.get("source", {}), SOIL_FIELDS)
     return soil_from_dict(path.stem, data.get("soil", {}), f"{path}: soil")
+
+
+def soil_with(soil: Soil, overrides: dict) -> Soil:
+    """The soil with some contact parameters replaced (`--set key=value`), each checked against SOIL_FIELDS."""
+    import dataclasses
+    unknown = sorted(set(overrides) - set(SOIL_FIELDS))
+    if unknown:
+        raise ConfigError(f"soil override {', '.join(unknown)}: allowed keys {', '.join(SOIL_FIELDS)}")
+    checked = {k: SOIL_FIELDS[k].check(f"soil override {k}", float(v)) for k, v in overrides.items()}
+    return dataclasses.replace(soil, **checked)
+
+
+def parse_overrides(items) -> dict:
+    """`["friction_deg=20", ...]` -> {"friction_deg": 20.0}; a malformed item is a ConfigError."""
+    out = {}
+    for item in items or ():
+        key, sep, value = item.partition("=")
+        try:
+            out[key.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise ConfigError(f"--set {item!r}: write KEY=NUMBER, e.g. friction_deg=20")
+    return out
 
 
 RESOLUTION_FIELDS = {

@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import ROOT, ConfigError, Field, load_resolution, load_soil  # noqa: E402
+from analysis.config import ROOT, ConfigError, Field, load_resolution, load_soil, parse_overrides, soil_with  # noqa: E402
 from analysis.io import atomic_write  # noqa: E402
 
 BED_DIR = ROOT / "results/beds"
@@ -65,9 +65,9 @@ def settle(O, utils, max_time: float, label: str, log):
 
 
 def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int = 2, quiet: bool = False,
-          bed_dir: Path = BED_DIR) -> Path:
+          bed_dir: Path = BED_DIR, overrides: dict | None = None) -> Path:
     """Build (or find) the bed; returns the .npz path. All checks run before YADE starts."""
-    soil, res = load_soil(soil_name), load_resolution(resolution)
+    soil, res = soil_with(load_soil(soil_name), overrides or {}), load_resolution(resolution)
     size = check_size([s / 1000.0 for s in size_mm])
     key = bed_key(soil, res, size, seed)
     out = Path(bed_dir) / f"{key}.npz"
@@ -159,11 +159,13 @@ def bed_arguments(description: str, default_size: str) -> argparse.ArgumentParse
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--bed-dir", default=str(BED_DIR), help="where beds are kept")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
     return p
 
 
 def bed_from_args(a) -> Path:
-    return build(a.soil, a.resolution, [float(s) for s in a.size.split(",")], a.seed, a.threads, bed_dir=Path(a.bed_dir))
+    return build(a.soil, a.resolution, [float(s) for s in a.size.split(",")], a.seed, a.threads, bed_dir=Path(a.bed_dir),
+                 overrides=parse_overrides(a.set))
 
 
 def main(argv=None) -> int:

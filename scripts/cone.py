@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import ROOT, ConfigError, Field, load_soil  # noqa: E402
+from analysis.config import ROOT, ConfigError, Field, load_soil, parse_overrides, soil_with  # noqa: E402
 from analysis.io import atomic_write  # noqa: E402
 
 S313_BASE_DIAMETER = 0.01283     # m
@@ -36,11 +36,12 @@ CONE_FIELDS = {"cone_scale": Field(0.5, 20.0, meaning="cone size / ASABE S313 si
 
 
 def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 0.3, cohesion: float | None = None,
-        threads: int = 2, depth: float = CI_DEPTH, quiet: bool = False, out_dir: Path | None = None) -> dict:
+        threads: int = 2, depth: float = CI_DEPTH, quiet: bool = False, out_dir: Path | None = None,
+        overrides: dict | None = None) -> dict:
     """Push the cone from above the surface to `depth` (base depth) and return the summary."""
     cone_scale = CONE_FIELDS["cone_scale"].check("cone.cone_scale", cone_scale)
     speed = CONE_FIELDS["speed"].check("cone.speed", speed)
-    soil = load_soil(soil_name)
+    soil = soil_with(load_soil(soil_name), overrides or {})
     if cohesion is not None:
         soil = dataclasses.replace(soil, normal_cohesion=cohesion, shear_cohesion=cohesion)
     from scripts.bed import load_meta
@@ -137,7 +138,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     try:
         summary = run(bed.bed_from_args(a), a.soil, a.cone_scale, a.speed, a.cohesion, a.threads, a.depth / 1000,
-                      out_dir=Path(a.out) if a.out else None)
+                      out_dir=Path(a.out) if a.out else None, overrides=parse_overrides(a.set))
     except (ConfigError, ValueError) as e:
         print(f"cone: {e}", file=sys.stderr)
         return 2

@@ -1,0 +1,90 @@
+"""The calibration summary: per soil the accepted cohesion, cone index and bed density against seed 001
+Table 2, and the resistance-vs-depth plot of the accepted cone runs (results/calibration/)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+
+from analysis.calibrate import TOLERANCE
+from analysis.config import ROOT, SOILS, load_soil
+from analysis.io import atomic_csv, read_table, stamp
+
+CAL = ROOT / "results/calibration"
+
+
+def accepted(soil: str) -> pd.Series | None:
+    """The last iteration within the tolerance, or None."""
+    path = CAL / f"{soil}.csv"
+    if not path.exists():
+        return None
+    t = read_table(path)
+    ok = t[t.error.abs() <= TOLERANCE]
+    return ok.iloc[-1] if len(ok) else None
+
+
+def core_density(bed: str, grain_density: float, moisture: float, diameter=0.0505, height=0.05, top=0.025,
+                 n_points=200000, seed=0) -> float:
+    """Dry bulk density of a virtual cutting-ring core (100 cm³ ring, as field density is sampled) at the
+    bed's centre, `top` below the surface: solid fraction by Monte Carlo points × grain density / (1 + w)."""
+    from scipy.spatial import cKDTree
+    data = np.load(ROOT / "results/beds" / f"{bed}.npz")
+    pos, rad = data["pos"], data["radius"]
+    cx, cy = pos[:, 0].mean(), pos[:, 1].mean()
+    z_top = np.percentile(pos[:, 2] + rad, 95) - top
+    rng = np.random.default_rng(seed)
+    r = diameter / 2 * np.sqrt(rng.uniform(size=n_points))
+    a = rng.uniform(0, 2 * np.pi, n_points)
+    pts = np.column_stack([cx + r * np.cos(a), cy + r * np.sin(a), z_top - rng.uniform(0, height, n_points)])
+    d, i = cKDTree(pos).query(pts, k=8)
+    solid = (d < rad[i]).any(axis=1).mean()
+    return float(solid * grain_density / (1 + moisture))
+
+
+def run(out=CAL) -> pd.DataFrame:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rows = []
+    fig, ax = plt.subplots(figsize=(6, 5))
+    for soil, colour in zip(SOILS, ("tab:brown", "tab:olive", "tab:orange")):
+        a = accepted(soil)
+        if a is None:
+            continue
+        meta = json.loads((ROOT / "results/beds" / f"{a.bed}.json").read_text())
+        cone = json.loads((ROOT / "results/cone" / f"{a.bed}-c3-v{a.speed_m_s:g}-coh{a.normal_cohesion_pa:g}.json").read_text())
+        prof = read_table(ROOT / "results/cone" / f"{a.bed}-c3-v{a.speed_m_s:g}-coh{a.normal_cohesion_pa:g}.csv")
+        prof = prof[(prof.base_depth_m >= 0) & (prof.base_depth_m <= 0.15)]
+        bins = (prof.base_depth_m * 1000 // 10) * 10 + 5
+        mean = prof.groupby(bins).resistance_pa.mean() / 1000
+        ax.plot(mean.values, mean.index, color=colour, label=f"{soil}: {a.cone_index_kpa:.0f} kPa")
+        ax.axvline(a.target_kpa, color=colour, ls=":", lw=1)
+        target = load_soil(soil)
+        rows.append({"soil": soil, "normal_cohesion_kpa": round(a.normal_cohesion_pa / 1000, 2),
+                     "friction_deg": a.friction_deg, "rolling_friction": a.rolling_friction,
+                     "cone_index_kpa": round(a.cone_index_kpa, 1), "target_kpa": a.target_kpa,
+                     "ci_error_percent": round(100 * a.error, 1),
+                     "dry_density_interior": round(meta["dry_bulk_density"]),
+                     "dry_density_core": round(core_density(a.bed, meta["grain_density"], target.moisture)),
+                     "density_error_core_percent": round(100 * (core_density(a.bed, meta["grain_density"],
+                                                                             target.moisture) / target.bulk_density - 1), 1),
+                     "dry_density_whole_bed":
+                         round(meta["whole_bed_dry_bulk_density"]), "target_density": target.bulk_density,
+                     "density_error_whole_bed_percent": round(100 * (meta["whole_bed_dry_bulk_density"] /
+                                                                     target.bulk_density - 1), 1),
+                     "porosity": round(meta["porosity"], 3), "grain_density": round(meta["grain_density"]),
+                     "particles": meta["particles"], "bed_settle_s": round(meta["wall_s"]),
+                     "cone_run_s": round(cone["wall_s"]), "cone_threads": cone["threads"],
+                     "cone_to_particle": round(cone["cone_to_particle"], 2),
+                     "iterations": int(read_table(CAL / f"{soil}.csv").shape[0])})
+    ax.invert_yaxis()
+    ax.set_xlabel("cone resistance, kPa (10 mm bins; dotted: Table 2 cone index)")
+    ax.set_ylabel("cone base depth, mm")
+    ax.set_title("Virtual cone in the calibrated beds (quick resolution)")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out / "resistance_depth.png", dpi=120)
+    table = pd.DataFrame(rows)
+    atomic_csv(table, out / "summary.csv", stamp("./holes calibration-report"))
+    return table

@@ -1,0 +1,125 @@
+"""Where the rolling disk starts, where its holes fall and how long the strip must be (seed 001 §2.3, eqs 1-6).
+
+Frame: x along the travel, z up, the undisturbed surface at z = 0; the disk axis is parallel to y at height
+H0 = R_tip - penetration and advances at v. Punch k's axis points at angle φ from straight down (φ > 0:
+forward), and φ falls at ω = v / (R(1 - δ)) (the rolling rate of eq 1 with slip δ). A point (u, v) of a
+punch (u along its axis from the disk centre, v across it in the disk plane, forward at φ = 0) is at
+x = u·sin φ + v·cos φ, z = -u·cos φ + v·sin φ relative to the axis. Lengths in mm, angles in rad.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from analysis.config import ConfigError, Disk
+from analysis.theory import punch_section
+
+START_MARGIN_DEG = 3.0      # punch 0 starts this far before it first touches the surface
+STOP_MARGIN_DEG = 2.0       # the run stops this far after the last punch has left the soil
+
+
+def rolling_rate(disk: Disk, speed: float, slip: float) -> float:
+    """ω = v / (R(1 - δ)) in rad/s for v in mm/s (eq 1: the axis advances R(1-δ) per radian)."""
+    return speed / (disk.R * (1.0 - slip))
+
+
+def punch_outline(disk: Disk, tip_sphere: float = 0.0) -> np.ndarray:
+    """(u, v) outline of the punch in its own plane; with a blunt tip of radius `tip_sphere` the cone is cut
+    where the inscribed sphere touches it and the sphere's arc closes the end."""
+    pts = punch_section(disk, 0.0, n_cone=8)
+    if tip_sphere <= 0:
+        return pts
+    half = np.arctan2(disk.d, disk.h)                      # cone half-angle at the tip
+    centre = disk.R - tip_sphere / np.sin(half)
+    u_cut = disk.R - (tip_sphere / np.sin(half)) * np.cos(half) ** 2
+    tip = int(np.argmax(pts[:, 0]))
+    upper, lower = pts[:tip], pts[tip + 1:]
+    arc = np.linspace(np.pi / 2 - half, -(np.pi / 2 - half), 9)     # from the upper tangent point to the lower
+    cap = np.column_stack([centre + tip_sphere * np.cos(arc), tip_sphere * np.sin(arc)])
+    return np.vstack([upper[upper[:, 0] < u_cut], cap, lower[lower[:, 0] < u_cut]])
+
+
+def to_axis_frame(outline: np.ndarray, phi):
+    """Outline points relative to the axis for each angle φ: arrays (n_phi, n_pts) of x and z."""
+    phi = np.atleast_1d(phi)[:, None]
+    u, v = outline[:, 0][None, :], outline[:, 1][None, :]
+    return u * np.sin(phi) + v * np.cos(phi), -u * np.cos(phi) + v * np.sin(phi)
+
+
+def in_soil_range(outline: np.ndarray, phis, H0: float):
+    """x-range (relative to the axis) of the outline's part below the surface, for each φ: the vertices
+    below it and the points where the outline's edges cross it; NaN where the punch is out of the soil."""
+    x, z = to_axis_frame(outline, phis)
+    x2, z2 = np.roll(x, -1, axis=1), np.roll(z, -1, axis=1)
+    below = z < -H0
+    cross = (z + H0) * (z2 + H0) < 0
+    t = np.where(cross, (-H0 - z) / np.where(cross, z2 - z, 1.0), np.nan)
+    xc = x + t * (x2 - x)
+    cand = np.concatenate([np.where(below, x, np.nan), np.where(cross, xc, np.nan)], axis=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)        # all-NaN rows: the punch is out of the soil
+        return np.nanmin(cand, axis=1), np.nanmax(cand, axis=1)
+
+
+@dataclass(frozen=True)
+class Layout:
+    """The run's geometry and timing, in mm, rad and s."""
+    omega: float              # rad/s
+    speed: float              # mm/s
+    slip: float
+    H0: float                 # axis height above the surface
+    tip_reach: float          # axis to the lowest point of the (blunt) tip
+    phi_in: float             # angle at which a punch first touches the surface
+    phi_out: float            # angle at which it leaves
+    phi0: float               # punch 0's angle at t = 0
+    x_axis0: float            # axis x at t = 0
+    hole_x: tuple             # x of each hole's centre (the axis x when that punch points straight down)
+    hole_rear: float          # hole extent behind / in front of its centre, from the swept outline
+    hole_front: float
+    length: float             # bed length, from x = 0
+    t_end: float
+
+    def axis_x(self, t):
+        return self.x_axis0 + self.speed * np.asarray(t)
+
+    def phi(self, k: int, t):
+        """Angle of punch k at time t (punch k leads punch 0 by k·2π/N)."""
+        return self.phi0 + k * self.pitch - self.omega * np.asarray(t)
+
+    pitch: float = 0.0        # 2π/N
+
+
+def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, tip_sphere: float = 0.0,
+           end_margin: float = 30.0, gap: float = 10.0) -> Layout:
+    """Place the disk so that punch 0 is the first to touch the bed (at x >= 0) and the punch already in the
+    soil at t = 0 stays `gap` mm clear of it; the bed ends `end_margin` mm past the last hole's front."""
+    outline = punch_outline(disk, tip_sphere)
+    tip_reach = float(outline[:, 0].max())
+    H0 = tip_reach - disk.penetration
+    speed = speed_kmh / 3.6 * 1000.0
+    omega = rolling_rate(disk, speed, slip)
+    adv = disk.R * (1.0 - slip)                             # axis advance per radian
+    pitch = 2 * np.pi / disk.N
+    phis = np.linspace(-np.pi / 2, np.pi / 2, 3601)
+    lo, hi = in_soil_range(outline, phis, H0)
+    touching = np.isfinite(lo)
+    phi_in, phi_out = float(phis[touching].max()), float(phis[touching].min())
+    phi0 = phi_in + np.radians(START_MARGIN_DEG)
+    # the swept hole, relative to the axis position at which the punch points straight down
+    hole_rear = float(-np.nanmin(lo - adv * phis))
+    hole_front = float(np.nanmax(hi - adv * phis))
+    # the punch that trails punch 0 is in the soil at t = 0 (its angle phi0 - pitch, if > phi_out)
+    trail = (phis <= phi0 - pitch) & touching
+    x_trail = float(np.max(hi[trail] + adv * (phi0 - pitch - phis[trail]))) if trail.any() else -np.inf
+    x_axis0 = -x_trail - gap if np.isfinite(x_trail) else gap + hole_rear - adv * phi0
+    if x_axis0 + adv * phi0 - hole_rear < 0:
+        raise ConfigError(f"holes overlap: spacing {2 * np.pi * adv / disk.N:.1f} mm is shorter than a hole "
+                          f"({hole_rear + hole_front:.1f} mm) plus the {gap:g} mm gap; allowed: slip or N smaller")
+    hole_x = tuple(float(x_axis0 + adv * (phi0 + k * pitch)) for k in range(holes))
+    length = hole_x[-1] + hole_front + end_margin
+    t_end = (phi0 + (holes - 1) * pitch - phi_out + np.radians(STOP_MARGIN_DEG)) / omega
+    return Layout(omega=omega, speed=speed, slip=slip, H0=H0, tip_reach=tip_reach, phi_in=phi_in, phi_out=phi_out,
+                  phi0=float(phi0), x_axis0=float(x_axis0), hole_x=hole_x, hole_rear=hole_rear,
+                  hole_front=hole_front, length=float(length), t_end=float(t_end), pitch=float(pitch))

@@ -1,0 +1,69 @@
+"""The rolling punch disk with press sleeves (issue 4), on a tiny strip; each scene is its own YADE process."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from analysis.config import ROOT, load_disk
+from analysis.metrology import deficit_centres
+from analysis.theory import hole_spacing
+
+
+def run_scene(tmp, *args, expect_ok=True):
+    r = subprocess.run([sys.executable, str(ROOT / "scripts/disk.py"), "--preset", "test", "--out", str(tmp / "runs"),
+                        "--bed-dir", str(tmp / "beds"), *args], capture_output=True, text=True, timeout=600, cwd=ROOT)
+    if expect_ok and r.returncode != 0:
+        raise AssertionError(f"disk.py failed ({r.returncode}):\n{r.stderr[-3000:]}")
+    return r
+
+
+@pytest.fixture(scope="module")
+def two_holes(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("disk")
+    summary = json.loads(run_scene(tmp, "--soil", "clay", "--holes", "2").stdout.strip().splitlines()[-1])
+    return summary, tmp / "runs" / summary["id"]
+
+
+def test_tip_reaches_the_configured_depth_and_sleeves_work(two_holes):
+    summary, run = two_holes
+    disk = load_disk("configs/disk.toml")
+    cfg = json.loads((run / "config.json").read_text())
+    assert summary["tip_min_depth_mm"] == pytest.approx([disk.penetration] * 2, abs=0.5)
+    travel_limit = cfg["sleeve"]["travel"]
+    for s in summary["sleeve_max_travel_mm"]:
+        assert 0.0 < s <= travel_limit
+    ts = np.genfromtxt(run / "timeseries.csv", delimiter=",", names=True)
+    assert np.all(np.isfinite(ts["punch_fz_n"]))
+    assert ts["punch_fz_n"].max() > 1.0                    # the soil pushes the punch up
+
+
+def test_spacing_is_2piR_over_N_and_no_grain_is_lost(two_holes):
+    summary, run = two_holes
+    state = np.load(run / "state.npz")
+    cfg = json.loads((run / "config.json").read_text())
+    pos, rad = state["pos"], state["radius"]
+    assert len(rad) == summary["particles"] and np.all(np.isfinite(pos))
+    L, W, _ = (s / 1000 for s in cfg["bed_size_mm"])
+    assert np.all((pos[:, 0] > -0.01) & (pos[:, 0] < L + 0.01) & (pos[:, 1] > -0.01) & (pos[:, 1] < W + 0.01)
+                  & (pos[:, 2] > -0.01))
+    x = deficit_centres(pos, state["initial_pos"], rad, W / 2, cfg["disk"]["D"] / 4000, 2 * rad.mean(),
+                        [h / 1000 for h in summary["hole_x_mm"]], 0.09)
+    expected = hole_spacing(load_disk("configs/disk.toml"), cfg["slip"]) / 1000
+    assert abs((x[1] - x[0]) - expected) < 2 * rad.mean()
+
+
+def test_free_rolling_at_low_resistance_rolls_without_slip(tmp_path):
+    r = run_scene(tmp_path, "--soil", "clay", "--holes", "1", "--mode", "free", "--set", "normal_cohesion=0",
+                  "--set", "shear_cohesion=0")
+    summary = json.loads(r.stdout.strip().splitlines()[-1])
+    assert abs(summary["slip_out"]) < 0.1
+
+
+@pytest.mark.parametrize("args, field", [(["--slip", "1.5"], "slip"), (["--speed", "0"], "speed_kmh"),
+                                         (["--mode", "dragged"], "mode"), (["--depth", "50"], "depth")])
+def test_bad_run_input_names_the_field(tmp_path, args, field):
+    r = run_scene(tmp_path, "--soil", "clay", *args, expect_ok=False)
+    assert r.returncode == 2 and field in r.stderr and "allowed" in r.stderr
+    assert not (tmp_path / "beds").exists()            # rejected before any scene was built

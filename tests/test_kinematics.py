@@ -1,0 +1,59 @@
+"""Layout of the disk run (analysis/kinematics.py) and the sleeve / preset configs; no YADE."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from analysis.config import ConfigError, load_disk, load_preset, load_sleeve, sleeve_from_dict, as_dict
+from analysis.kinematics import layout, punch_outline, to_axis_frame
+from analysis.metrology import deficit_centres
+from analysis.theory import hole_spacing, swept_extent
+
+DISK = load_disk("configs/disk.toml")
+
+
+@pytest.mark.parametrize("slip", [0.0, 0.1, 0.25])
+def test_holes_fall_at_the_theoretical_spacing_inside_the_strip(slip):
+    lay = layout(DISK, 1.9, slip, 3, tip_sphere=5.0)
+    assert np.diff(lay.hole_x) == pytest.approx([hole_spacing(DISK, slip)] * 2, abs=1e-9)
+    assert lay.hole_x[0] - lay.hole_rear > 0                       # the first hole lies wholly in the bed
+    assert lay.hole_x[-1] + lay.hole_front < lay.length
+    lo, hi = swept_extent(DISK, slip, [0.0])                         # the same swept hole as the theory's
+    assert lay.hole_rear + lay.hole_front == pytest.approx(hi[0] - lo[0], abs=3.0)
+
+
+def test_blunt_tip_reaches_the_penetration_and_the_outline_is_closed():
+    lay = layout(DISK, 1.9, 0.0, 1, tip_sphere=5.0)
+    out = punch_outline(DISK, 5.0)
+    x, z = to_axis_frame(out, 0.0)
+    assert lay.H0 + z.min() == pytest.approx(-DISK.penetration, abs=1e-9)
+    assert np.all(np.diff(out[: np.argmax(out[:, 0]) + 1, 0]) >= -1e-9)   # upper side runs towards the tip
+
+
+def test_overlapping_holes_are_a_clear_error():
+    with pytest.raises(ConfigError, match="holes overlap"):
+        layout(dataclasses.replace(DISK, N=12), 1.9, 0.0, 3)
+
+
+def test_sleeve_and_preset_configs_are_checked():
+    sleeve = load_sleeve("configs/disk.toml", DISK)
+    assert sleeve.outer_diameter > DISK.D
+    with pytest.raises(ConfigError, match="outer_diameter"):
+        sleeve_from_dict({**as_dict(sleeve), "outer_diameter": 40.0}, DISK)
+    with pytest.raises(ConfigError, match="travel"):
+        sleeve_from_dict({**as_dict(sleeve), "travel": 200.0}, DISK)
+    with pytest.raises(ConfigError, match="preset"):
+        load_preset("fast")
+
+
+def test_deficit_centres_find_carved_holes():
+    rng = np.random.default_rng(0)
+    n = 20000
+    pos = np.column_stack([rng.uniform(0, 0.6, n), rng.uniform(0, 0.16, n), rng.uniform(0, 0.1, n)])
+    rad = np.full(n, 0.004)
+    after = pos.copy()
+    for xc in (0.15, 0.35):
+        inside = (np.hypot(pos[:, 0] - xc, pos[:, 1] - 0.08) < 0.03)
+        after[inside, 2] -= 0.05 * (1 - np.hypot(pos[inside, 0] - xc, pos[inside, 1] - 0.08) / 0.03)
+    x = deficit_centres(after, pos, rad, 0.08, 0.0125, 0.008, [0.15, 0.35], 0.09)
+    assert x == pytest.approx([0.15, 0.35], abs=0.004)
