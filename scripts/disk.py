@@ -332,6 +332,7 @@ def main(argv=None) -> int:
     p.add_argument("--width", type=float, help="mm, overrides the preset")
     p.add_argument("--depth", type=float, help="mm, overrides the preset")
     p.add_argument("--mode", default="prescribed", help="prescribed | free")
+    p.add_argument("--disk-inertia", type=float, default=0.05, help="kg·m², free mode")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--vtk", action="store_true", help="also write VTK files for ParaView")
@@ -341,7 +342,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     try:
         params = plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
-                      parse_overrides(a.set))
+                      parse_overrides(a.set), a.disk_inertia)
         summary = main_run(params, a.threads, Path(a.out) if a.out else None, Path(a.bed_dir), a.vtk)
     except ConfigError as e:
         print(f"run: {e}", file=sys.stderr)
