@@ -231,11 +231,16 @@ class Preset:
     dt_safety: float
 
 
-def load_preset(name: str, path="configs/presets.toml") -> Preset:
+def named_section(what: str, name: str, path, schema: dict) -> dict:
+    """The checked table `name` of a file of named sections (presets, resolutions)."""
     data = read_toml(path)
     if name not in data:
-        raise ConfigError(f"preset = {name!r}: allowed {', '.join(data)}")
-    v = check_table(f"{path}: {name}", data[name], PRESET_FIELDS)
+        raise ConfigError(f"{what} = {name!r}: allowed {', '.join(data)}")
+    return check_table(f"{path}: {name}", data[name], schema)
+
+
+def load_preset(name: str, path="configs/presets.toml") -> Preset:
+    v = named_section("preset", name, path, PRESET_FIELDS)
     load_resolution(v["resolution"])
     return Preset(name, **v)
 
@@ -376,7 +381,4 @@ class Resolution:
 
 
 def load_resolution(name: str, path="configs/resolutions.toml") -> Resolution:
-    data = read_toml(path)
-    if name not in data:
-        raise ConfigError(f"resolution = {name!r}: allowed {', '.join(data)}")
-    return Resolution(name, **check_table(f"{path}: {name}", data[name], RESOLUTION_FIELDS))
+    return Resolution(name, **named_section("resolution", name, path, RESOLUTION_FIELDS))
