@@ -1,5 +1,6 @@
 """Soil beds and the virtual cone (issue 3), on tiny scenes; each scene runs in its own YADE process."""
 import json
+import re
 import subprocess
 import sys
 
@@ -91,7 +92,8 @@ def test_cone_resistance_grows_with_depth_and_cohesion(test_bed, tmp_path):
 
 def test_bad_soil_config_is_refused(tmp_path):
     bad = tmp_path / "clay.toml"
-    text = (ROOT / "configs/soils/clay.toml").read_text().replace("friction_deg = 30.0", "friction_deg = 95.0")
+    text = re.sub(r"^friction_deg = [0-9.]+", "friction_deg = 95.0", (ROOT / "configs/soils/clay.toml").read_text(),
+                  count=1, flags=re.M)
     bad.write_text(text)
     with pytest.raises(ConfigError, match=r"soil\.friction_deg = 95\.0 is out of range: allowed \[0, 60\] deg"):
         load_soil(bad)
