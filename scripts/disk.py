@@ -150,7 +150,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     n_particles = len(grain_ids)
     bed_mass = sum(O.bodies[i].state.mass for i in grain_ids)
     z_surface = surface_level(data["pos"], data["radius"], 4 * meta["radius"])
-    O.bodies.append(part.container(L, W, z_surface + 0.05, steel))
+    O.bodies.append(part.container(L, W, z_surface + 0.2, steel))     # tall: a flung grain falls back in
 
     mm = 1e-3
     v, omega = lay.speed * mm, lay.omega

@@ -12,9 +12,7 @@ from analysis.theory import hole_spacing
 
 
 def run_scene(tmp, *args, expect_ok=True):
-    """The test strip at twice the field speed (half the steps; depth, sleeves, spacing and slip do not need
-    the field speed)."""
-    r = subprocess.run([sys.executable, str(ROOT / "scripts/disk.py"), "--preset", "test", "--speed", "3.8",
+    r = subprocess.run([sys.executable, str(ROOT / "scripts/disk.py"), "--preset", "test",
                         "--out", str(tmp / "runs"), "--bed-dir", str(tmp / "beds"), *args],
                        capture_output=True, text=True, timeout=1500, cwd=ROOT)
     if expect_ok and r.returncode != 0:
