@@ -64,6 +64,11 @@ def bracket_search(f, target: float, lo: float, hi: float, tol: float = TOLERANC
     raise ValueError(f"no value within {tol:.0%} after {max_iter} steps; closest x = {closest[0]:.4g} -> {closest[1]:.4g}")
 
 
+def cone_result_name(bed: str, cone_scale: float, speed: float, cohesion: float) -> str:
+    """File stem of one cone run's results in results/cone/ (written by scripts/cone.py)."""
+    return f"{bed}-c{cone_scale:g}-v{speed:g}-coh{cohesion:g}"
+
+
 def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesion: float, seed: int = 1,
                speed: float = 0.5, threads: int = 2, extra=()) -> dict:
     """One cone scene in its own YADE process; returns its summary."""
@@ -104,7 +109,7 @@ def run(soil: str, resolution: str, size: str, cone_scale: float, lo: float, hi:
         rows.append(pd.DataFrame([{"iteration": sum(len(r) for r in rows) + 1, "normal_cohesion_pa": cohesion,
                                    "cone_index_kpa": s["cone_index_pa"] / 1000, "target_kpa": target / 1000,
                                    "error": s["cone_index_pa"] / target - 1, "bed": s["bed"],
-                                   "particles": s["particles"], "cone_to_particle": round(s["cone_to_particle"], 2),
+                                   "particles": s["particles"], "cone_scale": cone_scale, "cone_to_particle": round(s["cone_to_particle"], 2),
                                    "speed_m_s": speed, "friction_deg": soil_cfg.friction_deg,
                                    "rolling_friction": soil_cfg.rolling_friction, "wall_s": round(s["wall_s"], 1),
                                    "threads": threads}]))

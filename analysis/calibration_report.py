@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pandas as pd
 
-from analysis.calibrate import TOLERANCE
+from analysis.calibrate import TOLERANCE, cone_result_name
 from analysis.config import ROOT, SOILS, load_soil
 from analysis.io import atomic_csv, read_table, stamp
 
@@ -53,22 +53,23 @@ def run(out=CAL) -> pd.DataFrame:
         if a is None:
             continue
         meta = json.loads((ROOT / "results/beds" / f"{a.bed}.json").read_text())
-        cone = json.loads((ROOT / "results/cone" / f"{a.bed}-c3-v{a.speed_m_s:g}-coh{a.normal_cohesion_pa:g}.json").read_text())
-        prof = read_table(ROOT / "results/cone" / f"{a.bed}-c3-v{a.speed_m_s:g}-coh{a.normal_cohesion_pa:g}.csv")
+        stem = cone_result_name(a.bed, a.cone_scale, a.speed_m_s, a.normal_cohesion_pa)    # may hold a "."
+        cone = json.loads((ROOT / "results/cone" / f"{stem}.json").read_text())
+        prof = read_table(ROOT / "results/cone" / f"{stem}.csv")
         prof = prof[(prof.base_depth_m >= 0) & (prof.base_depth_m <= 0.15)]
         bins = (prof.base_depth_m * 1000 // 10) * 10 + 5
         mean = prof.groupby(bins).resistance_pa.mean() / 1000
         ax.plot(mean.values, mean.index, color=colour, label=f"{soil}: {a.cone_index_kpa:.0f} kPa")
         ax.axvline(a.target_kpa, color=colour, ls=":", lw=1)
         target = load_soil(soil)
+        core = core_density(a.bed, meta["grain_density"], target.moisture)
         rows.append({"soil": soil, "normal_cohesion_kpa": round(a.normal_cohesion_pa / 1000, 2),
                      "friction_deg": a.friction_deg, "rolling_friction": a.rolling_friction,
                      "cone_index_kpa": round(a.cone_index_kpa, 1), "target_kpa": a.target_kpa,
                      "ci_error_percent": round(100 * a.error, 1),
                      "dry_density_interior": round(meta["dry_bulk_density"]),
-                     "dry_density_core": round(core_density(a.bed, meta["grain_density"], target.moisture)),
-                     "density_error_core_percent": round(100 * (core_density(a.bed, meta["grain_density"],
-                                                                             target.moisture) / target.bulk_density - 1), 1),
+                     "dry_density_core": round(core),
+                     "density_error_core_percent": round(100 * (core / target.bulk_density - 1), 1),
                      "dry_density_whole_bed":
                          round(meta["whole_bed_dry_bulk_density"]), "target_density": target.bulk_density,
                      "density_error_whole_bed_percent": round(100 * (meta["whole_bed_dry_bulk_density"] /

@@ -16,6 +16,7 @@ import numpy as np
 from analysis.config import ConfigError, Disk
 from analysis.theory import punch_section
 
+TIP_SPHERE_RATIO = 0.2      # blunt tip: inscribed sphere radius / punch radius (scripts/disk.py builds it)
 START_MARGIN_DEG = 3.0      # punch 0 starts this far before it first touches the surface
 STOP_MARGIN_DEG = 2.0       # the run stops this far after the last punch has left the soil
 
@@ -80,15 +81,7 @@ class Layout:
     hole_front: float
     length: float             # bed length, from x = 0
     t_end: float
-
-    def axis_x(self, t):
-        return self.x_axis0 + self.speed * np.asarray(t)
-
-    def phi(self, k: int, t):
-        """Angle of punch k at time t (punch k leads punch 0 by k·2π/N)."""
-        return self.phi0 + k * self.pitch - self.omega * np.asarray(t)
-
-    pitch: float = 0.0        # 2π/N
+    pitch: float              # 2π/N: punch k leads punch 0 by k·pitch
 
 
 def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, tip_sphere: float = 0.0,

@@ -36,27 +36,6 @@ def centreline_profile(pos, radius, y_centre: float, half_band: float, cell: flo
     return x, np.nanmax(np.where(np.isnan(top), -np.inf, top), axis=1)
 
 
-def openings(x, top, level: float, expected_x, window: float):
-    """For each expected hole centre, the [rear, front] x of the run of cells whose top lies below `level`
-    that contains (or is nearest to) the expected centre within ±window; NaN if there is none."""
-    x, top = np.asarray(x), np.asarray(top)
-    below = top < level
-    out = []
-    for xc in expected_x:
-        idx = np.flatnonzero(below & (np.abs(x - xc) <= window))
-        if len(idx) == 0:
-            out.append((np.nan, np.nan))
-            continue
-        seed = idx[np.argmin(np.abs(x[idx] - xc))]
-        lo = hi = seed
-        while lo - 1 >= 0 and below[lo - 1]:
-            lo -= 1
-        while hi + 1 < len(x) and below[hi + 1]:
-            hi += 1
-        out.append((float(x[lo]), float(x[hi])))
-    return np.array(out)
-
-
 def deficit_centres(pos, initial_pos, radius, y_centre: float, half_band: float, cell: float, expected_x,
                     window: float):
     """Centre of each hole along the travel: the centroid of the surface's fall (initial top - final top,

@@ -16,12 +16,12 @@ from analysis.metrology import height_map
 def draw_disk(ax, cfg, summary):
     """The punches (and their sleeves at rest) in the disk plane at the end of the run, from the layout."""
     from analysis.config import disk_from_dict
-    from analysis.kinematics import punch_outline, to_axis_frame
+    from analysis.kinematics import TIP_SPHERE_RATIO, punch_outline, to_axis_frame
     disk = disk_from_dict({k: v for k, v in cfg["disk"].items() if k != "name"})
     lay = cfg["layout"]
     theta = lay["omega"] * summary["sim_time_s"]
     x_axis = lay["x_axis0"] + lay["speed"] * summary["sim_time_s"]
-    outline = punch_outline(disk, 0.2 * disk.d)
+    outline = punch_outline(disk, TIP_SPHERE_RATIO * disk.d)
     ro, u_plate = cfg["sleeve"]["outer_diameter"] / 2, disk.R - cfg["sleeve"]["rest_from_tip"]
     plate = np.array([[u_plate, -ro], [u_plate, ro]])
     for k in range(disk.N):

@@ -121,7 +121,8 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
                "dt": O.dt, "wall_s": time.time() - wall0, "threads": threads,
                "particle_steps_per_s": n_particles * O.iter / (time.time() - wall0)}
     out_dir = out_dir or ROOT / "results/cone"
-    name = f"{meta['key']}-c{cone_scale:g}-v{speed:g}-coh{soil.normal_cohesion:g}"
+    from analysis.calibrate import cone_result_name
+    name = cone_result_name(meta["key"], cone_scale, speed, soil.normal_cohesion)
     atomic_write(out_dir / f"{name}.csv", "base_depth_m,resistance_pa\n" + "".join(f"{a:.5f},{b:.1f}\n" for a, b in rows))
     atomic_write(out_dir / f"{name}.json", json.dumps(summary, indent=1))
     return summary

@@ -34,9 +34,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.config import (ROOT, ConfigError, Field, as_dict, load_disk, load_preset, load_sleeve,  # noqa: E402
                              load_soil, parse_overrides, soil_with)
 from analysis.io import atomic_write  # noqa: E402
-from analysis.kinematics import layout  # noqa: E402
+from analysis.kinematics import TIP_SPHERE_RATIO, layout  # noqa: E402
 
-TIP_SPHERE_RATIO = 0.2      # blunt tip sphere radius / punch radius
 SEGMENTS = 16               # facets round a punch or a sleeve
 SLEEVE_CLEARANCE = 1.0      # mm between the punch and the plate's bore
 RECORD_DT = 5e-4            # s of simulated time between records
@@ -199,6 +198,10 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     tip_speed = v + omega * lay.tip_reach * mm
     free = params["mode"] == "free"
 
+    def angle(k):
+        """Punch k's angle from straight down now (φ falls as the disk turns)."""
+        return lay.phi0 + k * lay.pitch - st["theta"]
+
     def hook():
         """Per step: the axis position, the disk's rotation (free mode), each sleeve's axial motion."""
         dt, t = O.dt, O.time
@@ -206,7 +209,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         rot.zeroPoint = axis
         torque = 0.0
         for k in range(disk.N):
-            phi = lay.phi0 + k * lay.pitch - st["theta"]
+            phi = angle(k)
             active = window[0] < phi < window[1]
             if not active and st["s"][k] == 0.0:
                 continue
@@ -241,7 +244,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
 
     def record(t, axis):
         for k in range(disk.N):
-            phi = lay.phi0 + k * lay.pitch - st["theta"]
+            phi = angle(k)
             if not window[0] < phi < window[1]:
                 continue
             fp = sum((O.forces.f(i) for i in punch_ids[k]), Vector3(0, 0, 0))
@@ -289,7 +292,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         vmax = max(vmax, guard())
         if O.iter % report < GUARD_EVERY or O.iter >= n_steps:
             done = O.iter / n_steps
-            formed = sum(1 for k in range(len(lay.hole_x)) if lay.phi0 + k * lay.pitch - st["theta"] < lay.phi_out)
+            formed = sum(1 for k in range(len(lay.hole_x)) if angle(k) < lay.phi_out)
             el = time.time() - wall0
             log(f"run: {100 * done:3.0f} %  travel {v * O.time * 1000:5.0f}/{v * lay.t_end * 1000:.0f} mm  "
                 f"holes {formed}/{len(lay.hole_x)}  wall {el:.0f} s  ETA {el / max(done, 1e-9) * (1 - done):.0f} s")

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from analysis.config import ROOT, ConfigError, load_soil
+from analysis.calibrate import cone_result_name
 from analysis.io import read_table
 
 TINY = ["--resolution", "tiny", "--threads", "2"]
@@ -76,7 +77,7 @@ def cone(tmp_path, beds, cohesion):
     summary = scene("cone.py", "--soil", "clay", "--size", "100,100,100", "--bed-dir", str(beds), "--out", str(tmp_path),
                     "--resolution", "test", "--cone-scale", "2", "--depth", "35", "--speed", "0.3",
                     "--cohesion", str(cohesion))
-    profile = read_table(tmp_path / f"{summary['bed']}-c2-v0.3-coh{summary['cohesion_pa']:g}.csv")
+    profile = read_table(tmp_path / f"{cone_result_name(summary['bed'], 2, 0.3, summary['cohesion_pa'])}.csv")
     return summary, profile
 
 
