@@ -51,6 +51,24 @@ def cmd_report(args) -> int:
     return 0
 
 
+def cmd_measure(args) -> int:
+    from analysis import measure
+    for folder in args.folders:
+        table = measure.run(folder)
+        print(table.drop(columns=["run"]).round(1).to_string(index=False))
+    return 0
+
+
+def cmd_compare(args) -> int:
+    from analysis import compare_job
+    try:
+        return compare_job.run(args.preset, args.soils.split(","), [int(s) for s in args.seeds.split(",")],
+                               args.threads, args.parallel, args.runs_dir, args.bed_dir, args.out)
+    except ConfigError as e:
+        print(f"compare: {e}", file=sys.stderr)
+        return 2
+
+
 def cmd_calibration_report(args) -> int:
     from analysis import calibration_report
     print(calibration_report.run().to_string(index=False))
@@ -122,6 +140,19 @@ def main(argv=None) -> int:
     p = sub.add_parser("report", help="pictures of one run: the holes and the tool's forces")
     p.add_argument("folder", help="results/runs/<id>")
     p.set_defaults(func=cmd_report)
+    p = sub.add_parser("measure", help="measure the holes of finished runs (L0, L1, L2, h1, C; seed 001 §4.2)")
+    p.add_argument("folders", nargs="+", help="results/runs/<id> ...")
+    p.set_defaults(func=cmd_measure)
+    p = sub.add_parser("compare", help="the main job: run, measure and set the holes beside the field's Table 3")
+    p.add_argument("--preset", default="quick")
+    p.add_argument("--soils", default="clay,loam,sand")
+    p.add_argument("--seeds", default="1", help="packing seeds, one run each, e.g. 1,2,3")
+    p.add_argument("--threads", type=int, default=2, help="threads per run")
+    p.add_argument("--parallel", type=int, default=1, help="runs at a time")
+    p.add_argument("--runs-dir", help="default results/runs")
+    p.add_argument("--bed-dir", help="default results/beds")
+    p.add_argument("--out", help="where comparison.csv/.md and comparison/ go (default results)")
+    p.set_defaults(func=cmd_compare)
     p = sub.add_parser("calibration-report", help="table and resistance plot of the accepted calibrations")
     p.set_defaults(func=cmd_calibration_report)
     p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs")

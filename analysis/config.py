@@ -268,9 +268,38 @@ class Seedling:
 
 
 def load_seedling(path="configs/seedling.toml") -> Seedling:
-    data = split_sections(path, read_toml(path), {"seedling", "source"})
+    data = split_sections(path, read_toml(path), {"seedling", "source", "criteria"})
     check_sources(path, data.get("source", {}), SEEDLING_FIELDS)
     return Seedling(**check_table(f"{path}: seedling", data.get("seedling", {}), SEEDLING_FIELDS))
+
+
+CRITERIA_METRICS = ("L0", "L1", "L2")
+
+
+def threshold(expr: str, seedling: Seedling, where: str = "criteria") -> float:
+    """A pass threshold written as a seedling dimension, optionally times sqrt2 (§4.2).
+
+    >>> threshold("sqrt2*a1", Seedling(35.0, 25.0, 40.0))
+    49.49747468305833
+    """
+    factor, _, name = expr.strip().rpartition("*")
+    if name not in SEEDLING_FIELDS or factor not in ("", "sqrt2"):
+        raise ConfigError(f"{where} = {expr!r}: allowed NAME or sqrt2*NAME with NAME in {', '.join(SEEDLING_FIELDS)}")
+    return getattr(seedling, name) * (2 ** 0.5 if factor else 1.0)
+
+
+def load_criteria(path="configs/seedling.toml") -> dict[str, dict[str, float]]:
+    """Every reading of the pass criteria: {reading: {"L0": min, "L1": min, "L2": min}} in mm."""
+    seedling = load_seedling(path)
+    readings = read_toml(path).get("criteria", {})
+    if not readings:
+        raise ConfigError(f"{path}: no [criteria.<reading>] table")
+    out = {}
+    for name, table in readings.items():
+        if set(table) != set(CRITERIA_METRICS):
+            raise ConfigError(f"{path}: criteria.{name} has {sorted(table)}: allowed exactly {', '.join(CRITERIA_METRICS)}")
+        out[name] = {m: threshold(table[m], seedling, f"{path}: criteria.{name}.{m}") for m in CRITERIA_METRICS}
+    return out
 
 
 def as_dict(obj) -> dict:

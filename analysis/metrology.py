@@ -5,7 +5,10 @@ grain are NaN. The undisturbed surface level is the median cell top of the strip
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+from scipy import ndimage
 
 
 def height_map(pos, radius, cell: float, x_range, y_range):
@@ -49,3 +52,136 @@ def deficit_centres(pos, initial_pos, radius, y_centre: float, half_band: float,
         w = np.where(np.abs(x - xc) <= window, fall, 0.0)
         out.append(float(np.sum(w * x) / np.sum(w)) if w.sum() > 0 else np.nan)
     return np.array(out)
+
+
+# --- the hole measures of seed 001 §4.2, on a probed surface -----------------------------------------------
+# Lengths in mm from here on. One surface serves every measure: the height S(x, y) at which the bottom of a
+# probe ball, lowered straight down at (x, y), first touches a grain (the way a caliper jaw or the pot meets
+# the soil). The probe bridges the gaps between grains, so S is a surface at the grains' scale whatever
+# their size; its resolution is the grid step across and about the probe radius in height.
+
+SECTIONS = (0.2, 0.4, 0.6, 0.8)     # §4.2: "measured at 4 places, equally spaced": lines at 1/5 ... 4/5
+
+
+def probed_surface(pos, radius, xs, ys, probe: float):
+    """S[ix, iy] = max_i z_i + sqrt((r_i + p)² - d_i²) - p over the grains within r_i + p of (x, y), where
+    d_i is the horizontal distance to grain i's centre and p the probe radius; NaN where no grain is under
+    the probe. `xs`, `ys`: evenly spaced grid lines."""
+    pos, radius = np.asarray(pos, float), np.asarray(radius, float)
+    step = xs[1] - xs[0]
+    reach = radius + probe
+    n = int(np.ceil(reach.max() / step))
+    ix0 = np.rint((pos[:, 0] - xs[0]) / step).astype(int)
+    iy0 = np.rint((pos[:, 1] - ys[0]) / step).astype(int)
+    top = np.full((len(xs), len(ys)), -np.inf)
+    for di in range(-n, n + 1):
+        for dj in range(-n, n + 1):
+            ix, iy = ix0 + di, iy0 + dj
+            ok = (ix >= 0) & (ix < len(xs)) & (iy >= 0) & (iy < len(ys))
+            h2 = np.full(len(pos), -1.0)
+            h2[ok] = reach[ok] ** 2 - (xs[ix[ok]] - pos[ok, 0]) ** 2 - (ys[iy[ok]] - pos[ok, 1]) ** 2
+            ok &= h2 > 0
+            np.maximum.at(top, (ix[ok], iy[ok]), pos[ok, 2] + np.sqrt(h2[ok]) - probe)
+    top[~np.isfinite(top)] = np.nan
+    return top
+
+
+def grow(mask, seed):
+    """The 4-connected part of boolean grid `mask` that holds cell `seed` (empty if the seed is not in it)."""
+    labels, _ = ndimage.label(mask)
+    return (labels == labels[seed]) & mask if mask[seed] else np.zeros_like(mask)
+
+
+def chord(mask_line, step: float) -> float:
+    """A caliper reading on one grid line of the opening: from its first cell to its last."""
+    idx = np.flatnonzero(mask_line)
+    return float((idx[-1] - idx[0] + 1) * step) if len(idx) else 0.0
+
+
+def sectioned_lengths(mask, step: float, probe: float):
+    """(L0, L1): the opening's lengths along x and across y, each the mean of 4 caliper chords on lines at
+    1/5 ... 4/5 of its extent the other way (§4.2). `mask` is where the probe's centre goes down into the
+    hole, so each chord gains the probe's diameter (it reaches a wall when its side touches it)."""
+    ix, iy = np.nonzero(mask)
+    rows = [int(round(iy.min() + f * (iy.max() - iy.min()))) for f in SECTIONS]
+    cols = [int(round(ix.min() + f * (ix.max() - ix.min()))) for f in SECTIONS]
+    return (float(np.mean([chord(mask[:, j], step) for j in rows])) + 2 * probe,
+            float(np.mean([chord(mask[i, :], step) for i in cols])) + 2 * probe)
+
+
+def inscribed_diameter(mask, step: float, probe: float) -> float:
+    """Diameter of the widest circle inside the region that the probe's centre reaches (`mask`): twice the
+    largest distance from a reached cell to an unreached one (less half a cell), plus the probe's diameter."""
+    if not mask.any():
+        return 0.0
+    if mask.all():
+        return np.inf
+    reach = ndimage.distance_transform_edt(mask).max()
+    return float(2 * (reach * step - step / 2 + probe))
+
+
+@dataclass
+class HoleMeasure:
+    """One hole, measured as in seed 001 §4.2 (mm). z_open: the level of the opening (subsided surface)."""
+    x: float            # centre along the travel: the centroid of the opening
+    h1: float           # subsidence of the pressed surface beside the hole
+    L0: float           # opening length along the travel, mean of 4 sections
+    L1: float           # opening width across the travel, mean of 4 sections
+    L2: float           # effective depth: opening level down to where the inner diameter falls to √2·a2
+    bottom: float       # deepest probed point of the hole below the undisturbed surface
+    z_open: float
+
+
+def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sleeve_outer: float,
+                 probe: float, diameter_min: float, dz: float = 1.0) -> HoleMeasure:
+    """Measure the hole nearest (xc, yc) on the probed surface S (seed 001 §4.2).
+
+    h1: z_surface minus the median of S beside the hole, where the sleeve pressed (|x - xc| <= D/4 and
+    D/2 + probe <= |y - yc| <= sleeve_outer/2). The opening: the connected cells below the
+    subsided level z_open = z_surface - h1 by more than one probe radius (grain-scale roughness), grown from
+    the deepest cell within D/2 of the expected centre. L2: scanning down from z_open in steps dz, the
+    region the probe reaches below z (grown from that deepest cell) until its inscribed diameter is no
+    more than `diameter_min`, interpolated between steps."""
+    step = xs[1] - xs[0]
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    side = (np.abs(X - xc) <= D / 4) & (np.abs(Y - yc) >= D / 2 + probe) & (np.abs(Y - yc) <= sleeve_outer / 2)
+    h1 = z_surface - float(np.nanmedian(S[side]))
+    z_open = z_surface - h1
+    near = np.hypot(X - xc, Y - yc) <= D / 2
+    Sn = np.where(near & np.isfinite(S), S, np.inf)
+    seed = np.unravel_index(np.argmin(Sn), S.shape)
+    below = np.where(np.isfinite(S), S, -np.inf)
+    opening = grow(below < z_open - probe, seed)
+    if not opening.any():
+        return HoleMeasure(xc, h1, 0.0, 0.0, 0.0, z_surface - float(S[seed]), z_open)
+    L0, L1 = sectioned_lengths(opening, step, probe)
+    prev_z, prev_d = z_open, inscribed_diameter(opening, step, probe)
+    z = z_open
+    L2 = z_open - float(S[seed])
+    while z > S[seed]:
+        z -= dz
+        d = inscribed_diameter(grow(below < z, seed), step, probe)
+        if d <= diameter_min:
+            frac = (prev_d - diameter_min) / (prev_d - d) if np.isfinite(prev_d) and prev_d > d else 1.0
+            L2 = z_open - (prev_z - frac * dz)
+            break
+        prev_z, prev_d = z, d
+    return HoleMeasure(float(X[opening].mean()), h1, L0, L1, L2, z_surface - float(S[seed]), z_open)
+
+
+def measure_state(pos_mm, radius_mm, initial_pos_mm, initial_radius_mm, width: float, hole_x, D: float,
+                  sleeve_outer: float, diameter_min: float, cell: float = 1.0, probe: float | None = None):
+    """Every hole of a strip (positions in mm, strip 0 <= y <= width, holes expected at `hole_x` on its
+    centreline): a list of HoleMeasure and the undisturbed surface level (the median probed surface of the
+    bed before the disk, walls' cells left out). The probe defaults to the mean grain radius; spacing C is
+    the difference of consecutive centres."""
+    probe = float(np.mean(radius_mm)) if probe is None else probe
+    x_lo, x_hi = float(np.min(initial_pos_mm[:, 0])), float(np.max(initial_pos_mm[:, 0]))
+    xs = np.arange(x_lo, x_hi + cell / 2, cell)
+    ys = np.arange(0.0, width + cell / 2, cell)
+    margin = 2 * probe
+    inner = np.ix_((xs > x_lo + margin) & (xs < x_hi - margin), (ys > margin) & (ys < width - margin))
+    z_surface = float(np.nanmedian(probed_surface(initial_pos_mm, initial_radius_mm, xs, ys, probe)[inner]))
+    S = probed_surface(pos_mm, radius_mm, xs, ys, probe)
+    return [measure_hole(S, xs, ys, z_surface, xc, width / 2, D, sleeve_outer, probe, diameter_min)
+            for xc in hole_x], z_surface, (xs, ys, S)

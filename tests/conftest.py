@@ -19,3 +19,11 @@ def disk():
 def other_disk():
     """A different disk (N = 5, D = 40, R0 = 60, L3 = 100) so no test leans on the seed's numbers."""
     return load_disk(ROOT / "configs/disks/n5_d40.toml")
+
+
+@pytest.fixture(scope="session")
+def scene_dirs(tmp_path_factory):
+    """Runs and beds folders shared by the scene tests: a run with the same parameters is made once and
+    reused (scripts/disk.py skips a run whose folder has a summary)."""
+    root = tmp_path_factory.mktemp("scenes")
+    return root / "runs", root / "beds"

@@ -1,0 +1,216 @@
+"""The field-table comparison (seed 001 Table 3): simulated holes beside the field's, per soil. No YADE.
+
+    ./holes compare --preset quick          # runs (or reuses) the scenes, measures them, writes the table
+
+Statistics. Each metric's mean and SD are over every measured hole of a soil (C over consecutive pairs). The
+95 % interval of the mean is Student's t over the run means when there are two runs or more (holes in one
+bed are not independent of each other), else over the holes of the one run. The pass rate is estimated from
+the per-hole distributions: each of L0, L1, L2 is taken as normal with the holes' mean and SD, the three
+independent, so p = Π P(X > threshold); its interval is a parametric bootstrap (resample as many holes from
+the fitted normals, refit, recompute). The raw count k/n of passing holes is given beside it.
+"""
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.config import ROOT, load_criteria, load_disk, load_seedling
+from analysis.io import atomic_csv, atomic_write, read_table, stamp
+
+METRICS = ("L0", "L1", "L2", "h1", "C")
+T975 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262, 10: 2.228,
+        12: 2.179, 15: 2.131, 20: 2.086, 30: 2.042}
+
+
+def t975(dof: int) -> float:
+    """Two-sided 95 % Student t quantile (dof >= 1; the next tabulated dof below, 1.96 beyond 30)."""
+    if dof < 1:
+        return math.nan
+    return T975[max(k for k in T975 if k <= dof)] if dof <= 30 else 1.96
+
+
+def field_table(path=ROOT / "configs/field/table3.csv") -> pd.DataFrame:
+    return read_table(path)
+
+
+def theory_values(disk_path="configs/disk.toml", slip: float | None = None) -> dict:
+    """Theory beside the field and the simulation (issue 2), no subsidence in either:
+    - "table1": the paper's own theory, Table 1 (eqs 1-5 as the authors evaluated them): L0, L1 at the slip
+      (nearest tabulated), and C = 2πR(1-δ)/N (eq 6);
+    - "envelope": the exact swept envelope of the rigid punch: L0 and L1 at the surface, L2 from the surface
+      to where the swept section's smaller extent falls to √2·a2, and C."""
+    from analysis.theory import hole_profile, hole_spacing
+    disk = load_disk(disk_path)
+    slip = disk.slip if slip is None else slip
+    prof = hole_profile(disk, slip)
+    size = np.fmin(prof.length, prof.width)
+    below = np.flatnonzero(size <= 2 ** 0.5 * load_seedling().a2)
+    t1 = read_table(ROOT / "configs/field/table1.csv")
+    row = t1.iloc[int(np.argmin(np.abs(t1.slip - slip)))]
+    return {"table1": {"L0": float(row.L0), "L1": float(row.L1), "C": hole_spacing(disk, slip)},
+            "envelope": {"L0": prof.L0, "L1": prof.L1,
+                         "L2": float(prof.depth[below[0]]) if len(below) else float(prof.depth[-1]), "C": prof.C}}
+
+
+def metric_stats(holes: pd.DataFrame, metric: str) -> dict:
+    """Mean, SD, n and the 95 % interval of the mean of one metric over a soil's holes (see module doc)."""
+    v = holes[["run", metric]].dropna()
+    n, runs = len(v), v.run.nunique()
+    if n == 0:
+        return {"sim_mean": math.nan, "sim_sd": math.nan, "ci_lo": math.nan, "ci_hi": math.nan, "n_holes": 0,
+                "n_runs": 0}
+    mean, sd = float(v[metric].mean()), float(v[metric].std(ddof=1)) if n > 1 else math.nan
+    if runs >= 2:
+        means = v.groupby("run")[metric].mean()
+        half = t975(runs - 1) * means.std(ddof=1) / math.sqrt(runs)
+    else:
+        half = t975(n - 1) * sd / math.sqrt(n) if n > 1 else math.nan
+    return {"sim_mean": mean, "sim_sd": sd, "ci_lo": mean - half, "ci_hi": mean + half, "n_holes": n,
+            "n_runs": runs}
+
+
+def pass_probability(holes: pd.DataFrame, criteria: dict, n_boot: int = 2000, seed: int = 0) -> dict:
+    """Pass rate (%) from the per-hole distributions of L0, L1, L2, with a bootstrap 95 % interval, and the
+    raw count (module doc).
+
+    >>> h = pd.DataFrame({"L0": [90., 92, 94], "L1": [50., 52, 54], "L2": [60., 61, 62]})
+    >>> r = pass_probability(h, {"L0": 49.5, "L1": 49.5, "L2": 40.0})
+    >>> round(r["pass_pct"], 1), r["passed"], r["n"]
+    (84.1, 3, 3)
+    """
+    from statistics import NormalDist
+    v = holes[list(criteria)].dropna()
+    n = len(v)
+    if n < 2:
+        return {"pass_pct": math.nan, "pass_lo": math.nan, "pass_hi": math.nan, "passed": 0, "n": n}
+
+    def prob(mu, sd):
+        p = 1.0
+        for m, t in criteria.items():
+            s = max(sd[m], 1e-9)
+            p *= 1 - NormalDist(mu[m], s).cdf(t)
+        return p
+
+    mu, sd = v.mean(), v.std(ddof=1)
+    rng = np.random.default_rng(seed)
+    boot = []
+    for _ in range(n_boot):
+        sample = {m: rng.normal(mu[m], sd[m], n) for m in criteria}
+        boot.append(prob({m: s.mean() for m, s in sample.items()}, {m: s.std(ddof=1) for m, s in sample.items()}))
+    passed = int(np.all([v[m] > t for m, t in criteria.items()], axis=0).sum())
+    return {"pass_pct": 100 * prob(mu, sd), "pass_lo": 100 * float(np.percentile(boot, 2.5)),
+            "pass_hi": 100 * float(np.percentile(boot, 97.5)), "passed": passed, "n": n}
+
+
+def field_consistency(field: pd.DataFrame, criteria: dict) -> pd.DataFrame:
+    """Can each field run's pass rate be true under a reading? For each metric with a threshold t, a run
+    with mean m and pass fraction p needs its failing holes to average at most (m - p·t)/(1 - p) (all
+    passing holes above t). Reported per run: that bound for L1, and whether the run mean is above t."""
+    rows = []
+    for _, r in field[field.run != "mean"].iterrows():
+        p = r.pass_percent / 100
+        for m, t in criteria.items():
+            rows.append({"soil": r.soil, "run": r.run, "metric": m, "field_mean": r[m], "threshold": round(t, 2),
+                         "pass_percent": r.pass_percent, "mean_above_threshold": bool(r[m] > t),
+                         "max_mean_of_failing_holes": round((r[m] - p * t) / (1 - p), 1)})
+    return pd.DataFrame(rows)
+
+
+def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: dict[str, dict]) -> pd.DataFrame:
+    """One row per soil and metric (and per pass-criteria reading): field mean and range, simulated mean ±
+    SD and interval, errors, inside-the-range, theory."""
+    rows = []
+    for soil, h in holes.groupby("soil", sort=False):
+        f = field[field.soil == soil]
+        fr, fm = f[f.run != "mean"], f[f.run == "mean"].iloc[0]
+        for m in METRICS:
+            s = metric_stats(h, m)
+            lo, hi = float(fr[m].min()), float(fr[m].max())
+            rows.append({"soil": soil, "metric": m, "field_mean": float(fm[m]), "field_min": lo, "field_max": hi,
+                         **s, "abs_error": s["sim_mean"] - float(fm[m]),
+                         "rel_error_pct": 100 * (s["sim_mean"] - float(fm[m])) / float(fm[m]),
+                         "inside_field_range": bool(lo <= s["sim_mean"] <= hi),
+                         "theory_table1": theory["table1"].get(m, math.nan),
+                         "theory_envelope": theory["envelope"].get(m, math.nan)})
+        for reading, crit in criteria.items():
+            p = pass_probability(h, crit)
+            lo, hi = float(fr.pass_percent.min()), float(fr.pass_percent.max())
+            rows.append({"soil": soil, "metric": f"pass_{reading}", "field_mean": float(fm.pass_percent),
+                         "field_min": lo, "field_max": hi, "sim_mean": p["pass_pct"], "sim_sd": math.nan,
+                         "ci_lo": p["pass_lo"], "ci_hi": p["pass_hi"], "n_holes": p["n"],
+                         "n_runs": h.run.nunique(), "abs_error": p["pass_pct"] - float(fm.pass_percent),
+                         "rel_error_pct": 100 * (p["pass_pct"] - float(fm.pass_percent)) / float(fm.pass_percent),
+                         "inside_field_range": bool(lo <= p["pass_pct"] <= hi), "theory_table1": math.nan,
+                         "theory_envelope": math.nan,
+                         "passed_holes": p["passed"]})
+    return pd.DataFrame(rows)
+
+
+def ordering(table: pd.DataFrame) -> dict:
+    """The field's soil ordering clay > loam > sand, checked on the simulated means of L0, L2, pass rate."""
+    out = {}
+    for m in ("L0", "L2", "pass_stated", "pass_field"):
+        t = table[table.metric == m].set_index("soil")
+        if not {"clay", "loam", "sand"} <= set(t.index):
+            continue
+        s = t.sim_mean
+        out[m] = {"field": bool(t.field_mean.clay > t.field_mean.loam > t.field_mean.sand),
+                  "simulated": bool(s.clay > s.loam > s.sand)}
+    return out
+
+
+def markdown(table: pd.DataFrame, preset: str, note: str) -> str:
+    lines = [f"# Simulated holes against the field (seed 001 Table 3), preset `{preset}`", "", note, "",
+             "| soil | metric | field mean [range] | simulated mean ± SD [95 % CI] (holes/runs) | error | in range | "
+             "theory: Table 1 / envelope |", "|---|---|---|---|---|---|---|"]
+    for _, r in table.iterrows():
+        unit = "%" if r.metric.startswith("pass") else "mm"
+        sd = "" if pd.isna(r.sim_sd) else f" ± {r.sim_sd:.1f}"
+        extra = f", {int(r.passed_holes)}/{int(r.n_holes)} passed" if r.metric.startswith("pass") else ""
+        theory = " / ".join("–" if pd.isna(v) else f"{v:.1f}" for v in (r.theory_table1, r.theory_envelope))
+        lines.append(f"| {r.soil} | {r.metric} | {r.field_mean:.1f} [{r.field_min:.1f}–{r.field_max:.1f}] | "
+                     f"{r.sim_mean:.1f}{sd} [{r.ci_lo:.1f}–{r.ci_hi:.1f}] ({int(r.n_holes)}/{int(r.n_runs)}{extra}) | "
+                     f"{r.abs_error:+.1f} {unit} ({r.rel_error_pct:+.0f} %) | {'yes' if r.inside_field_range else 'no'} | {theory} |")
+    inside = table[~table.metric.str.startswith("pass")].inside_field_range
+    lines += ["", f"Simulated means inside the field range: {int(inside.sum())} of {len(inside)} hole metrics."]
+    return "\n".join(lines) + "\n"
+
+
+def plot(table: pd.DataFrame, holes: pd.DataFrame, field: pd.DataFrame, preset: str, out: Path, note: str):
+    """One PNG per metric: field runs as points, the simulation as its mean with the 95 % interval and its
+    holes as small marks, theory as a line."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    paths = []
+    for m in sorted(set(table.metric)):
+        t = table[table.metric == m]
+        fig, ax = plt.subplots(figsize=(5.5, 3.8))
+        for i, (_, r) in enumerate(t.iterrows()):
+            col = "pass_percent" if m.startswith("pass") else m
+            fv = field[(field.soil == r.soil) & (field.run != "mean")][col]
+            ax.plot(np.full(len(fv), i - 0.12), fv, "ko", ms=4, label="field runs" if i == 0 else None)
+            ax.errorbar(i + 0.12, r.sim_mean, yerr=[[r.sim_mean - r.ci_lo], [r.ci_hi - r.sim_mean]], fmt="s",
+                        color="C0", capsize=4, label="simulated mean, 95 % CI" if i == 0 else None)
+            if not m.startswith("pass"):
+                hv = holes[holes.soil == r.soil][m].dropna()
+                ax.plot(np.full(len(hv), i + 0.25), hv, "_", color="C0", ms=8,
+                        label="simulated holes" if i == 0 else None)
+            for v, style, label in ((r.theory_table1, "-", "theory, Table 1"), (r.theory_envelope, "--",
+                                                                               "theory, swept envelope")):
+                if not pd.isna(v):
+                    ax.hlines(v, i - 0.35, i + 0.35, colors="C3", linestyles=style, label=label if i == 0 else None)
+        ax.set_xticks(range(len(t)), t.soil)
+        ax.set(ylabel=f"{m}, {'%' if m.startswith('pass') else 'mm'}", title=f"{m}: field vs simulation ({preset})")
+        ax.legend(fontsize=7)
+        fig.text(0.01, 0.005, note, fontsize=5, color="0.4")
+        fig.tight_layout()
+        path = out / f"{preset}-{m}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    return paths

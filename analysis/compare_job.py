@@ -1,0 +1,136 @@
+"""The main job: run (or reuse) one disk scene per soil and packing seed, measure the holes, and write the
+comparison with the field (results/comparison.csv, results/comparison.md, results/comparison/*.png).
+
+Each scene is its own YADE process (scripts/disk.py) in results/runs/<id>/, named by a hash of its
+parameters; a finished run (summary.json present) is reused, a failed one is reported with its log and the
+others go on. All inputs are checked before the first scene starts.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pandas as pd
+
+from analysis import compare, measure
+from analysis.config import ROOT, load_criteria
+from analysis.io import atomic_csv, atomic_write, read_table, stamp
+
+_print_lock = threading.Lock()
+
+
+def say(msg: str):
+    with _print_lock:
+        print(msg, file=sys.stderr, flush=True)
+
+
+def run_case(params: dict, threads: int, runs_dir: Path, bed_dir: Path) -> dict:
+    """Run one scene (or reuse it); its progress lines are echoed with a [soil seed] prefix."""
+    tag = f"[{params['soil']['name']} seed {params['seed']}]"
+    log_path = runs_dir / f"{params['id']}.log"
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    cmd = [sys.executable, str(ROOT / "scripts/disk.py"), "--soil", params["soil"]["name"], "--preset",
+           params["preset"]["name"], "--seed", str(params["seed"]), "--threads", str(threads), "--out",
+           str(runs_dir), "--bed-dir", str(bed_dir)]
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+        last = [time.time()]
+
+        def pump():
+            for line in proc.stderr:
+                log.write(line)
+                log.flush()
+                if time.time() - last[0] > 20 or not line.startswith(("run:", "bed:")):
+                    last[0] = time.time()
+                    say(f"{tag} {line.rstrip()}")
+        t = threading.Thread(target=pump)
+        t.start()
+        out = proc.stdout.read()
+        proc.wait()
+        t.join()
+    if proc.returncode != 0:
+        tail = "".join(log_path.read_text().splitlines(keepends=True)[-15:])
+        raise RuntimeError(f"{tag} scripts/disk.py exited {proc.returncode}; log {log_path}:\n{tail}")
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, parallel: int = 1,
+        runs_dir: Path | None = None, bed_dir: Path | None = None, out: Path | None = None) -> int:
+    from scripts.disk import plan                      # pure Python: checks every input, no YADE
+    from scripts.bed import BED_DIR
+    runs_dir = Path(runs_dir or ROOT / "results/runs")
+    bed_dir = Path(bed_dir or BED_DIR)
+    out = Path(out or ROOT / "results")
+    cases = [plan(soil, preset, seed=seed) for soil in soils for seed in seeds]
+    criteria = load_criteria()
+    todo = [c for c in cases if not (runs_dir / c["id"] / "summary.json").exists()]
+    say(f"compare {preset}: {len(cases)} runs ({len(cases) - len(todo)} finished earlier), "
+        f"{parallel} at a time on {threads} threads each")
+    wall0 = time.time()
+    failures = []
+
+    def one(c):
+        try:
+            s = run_case(c, threads, runs_dir, bed_dir)
+            done = sum((runs_dir / x["id"] / "summary.json").exists() for x in cases)
+            say(f"compare: {c['id']} done ({s['wall_s']:.0f} s); {done}/{len(cases)} runs finished, "
+                f"{time.time() - wall0:.0f} s so far")
+        except RuntimeError as e:
+            failures.append(str(e))
+            say(str(e))
+    with ThreadPoolExecutor(max_workers=max(1, parallel)) as pool:
+        list(pool.map(one, cases))
+
+    finished = [c for c in cases if (runs_dir / c["id"] / "summary.json").exists()]
+    if not finished:
+        say("compare: no run finished")
+        return 1
+    holes = pd.concat([measure.run(runs_dir / c["id"]) for c in finished], ignore_index=True)
+    field = compare.field_table()
+    table = compare.compare(holes, field, compare.theory_values(), criteria)
+    table.insert(0, "preset", preset)
+    costs = pd.DataFrame([json.loads((runs_dir / c["id"] / "summary.json").read_text()) for c in finished])
+    write(out, preset, holes, table, field, costs, criteria, runs_dir, finished, soils, seeds)
+    for f in failures:
+        say(f"FAILED: {f.splitlines()[0]}")
+    return 1 if failures else 0
+
+
+def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, finished, soils, seeds):
+    command = f"./holes compare --preset {preset} --soils {','.join(soils)} --seeds {','.join(map(str, seeds))}"
+    note = stamp(command)
+    folder = out / "comparison"
+    folder.mkdir(parents=True, exist_ok=True)
+    atomic_csv(holes.round(2), folder / f"{preset}-holes.csv", note)
+    cost = (f"Cost: {len(costs)} runs, {int(costs.particles.mean())} grains each on average, "
+            f"{costs.wall_s.sum():.0f} s of wall time in all ({costs.threads.iloc[0]} threads per run; "
+            f"{(costs.wall_s * 200 / costs.travel_mm).mean():.0f} s per 200 mm hole).")
+    order = compare.ordering(table)
+    order_text = "; ".join(f"{m}: field clay > loam > sand {'yes' if o['field'] else 'no'}, simulated "
+                           f"{'yes' if o['simulated'] else 'no'}" for m, o in order.items())
+    md = compare.markdown(table.drop(columns="preset"), preset, note + "\n\n" + cost)
+    if order_text:
+        md += f"\nSoil ordering (clay > loam > sand): {order_text}.\n"
+    atomic_write(folder / f"{preset}.md", md)
+    combined = out / "comparison.csv"
+    if combined.exists():
+        old = read_table(combined)
+        table = pd.concat([old[old.preset != preset], table], ignore_index=True)
+    atomic_csv(table.round(3), combined, "one row per preset, soil and metric; see results/comparison.md")
+    mds = sorted(folder.glob("*.md"), key=lambda p: ["quick", "default", "paper"].index(p.stem)
+                 if p.stem in ("quick", "default", "paper") else 9)
+    atomic_write(out / "comparison.md", "\n".join(p.read_text() for p in mds))
+    compare.plot(table[table.preset == preset], holes, field, preset, folder, note)
+    atomic_csv(compare.field_consistency(field, criteria["stated"]), folder / "field_consistency.csv",
+               "can each field run's pass rate be true under the stated criteria? see analysis/compare.py")
+    for c in finished:
+        if c["seed"] == min(seeds):
+            for name in ("holes_top.png", "holes_sections.png"):
+                shutil.copyfile(runs_dir / c["id"] / name, folder / f"{preset}-{c['soil']['name']}-{name}")
+    print(md)

@@ -1,0 +1,104 @@
+"""The holes of one run, measured as the field measured them (seed 001 §4.2), and their pictures. No YADE.
+
+    ./holes measure results/runs/<id>      # writes holes.csv, holes_top.png, holes_sections.png there
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.config import load_seedling
+from analysis.io import atomic_csv
+from analysis.metrology import measure_state
+
+COLUMNS = ["run", "soil", "seed", "hole", "x", "C", "h1", "L0", "L1", "L2", "bottom", "grain_radius", "probe",
+           "cell"]
+
+
+def load_run(folder: Path):
+    folder = Path(folder)
+    if not (folder / "summary.json").exists():
+        raise FileNotFoundError(f"{folder}: no summary.json (the run did not finish)")
+    cfg = json.loads((folder / "config.json").read_text())
+    summary = json.loads((folder / "summary.json").read_text())
+    state = np.load(folder / "state.npz")
+    return cfg, summary, state
+
+
+def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
+    """One row per hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2 and
+    the bottom depth; the probe is the mean grain radius. Also returns the probed surfaces for pictures."""
+    cfg, summary, state = load_run(folder)
+    seedling = load_seedling(seedling_path)
+    pos, rad, pos0 = state["pos"] * 1000, state["radius"] * 1000, state["initial_pos"] * 1000
+    holes, z_surface, surf = measure_state(pos, rad, pos0, rad, cfg["bed_size_mm"][1], summary["hole_x_mm"],
+                                           cfg["disk"]["D"], cfg["sleeve"]["outer_diameter"],
+                                           2 ** 0.5 * seedling.a2, cell=cell)
+    x = np.array([h.x for h in holes])
+    rows = [{"run": summary["id"], "soil": cfg["soil"]["name"], "seed": cfg["seed"], "hole": k + 1, "x": h.x,
+             "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2,
+             "bottom": h.bottom, "grain_radius": float(rad.mean()), "probe": float(rad.mean()), "cell": cell}
+            for k, h in enumerate(holes)]
+    return pd.DataFrame(rows, columns=COLUMNS), holes, z_surface, surf
+
+
+def run(folder, cell: float = 1.0) -> pd.DataFrame:
+    """Measure a finished run; write holes.csv and the pictures into its folder."""
+    folder = Path(folder)
+    table, holes, z_surface, surf = measure_run(folder, cell)
+    atomic_csv(table.round(2), folder / "holes.csv", "holes measured by analysis/measure.py (mm); seed 001 §4.2")
+    plot(folder, holes, z_surface, surf)
+    return table
+
+
+def plot(folder: Path, holes, z_surface: float, surf):
+    """holes_top.png: the probed surface with each opening's sections; holes_sections.png: along and across
+    each hole through its centre, the grains in a slab one grain thick and the probed surface."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    cfg, summary, state = load_run(folder)
+    xs, ys, S = surf
+    pos, rad = state["pos"] * 1000, state["radius"] * 1000
+    W = cfg["bed_size_mm"][1]
+    fig, ax = plt.subplots(figsize=(12, 3.6))
+    im = ax.imshow((S - z_surface).T, origin="lower", extent=(xs[0], xs[-1], ys[0], ys[-1]), cmap="terrain",
+                   vmin=-70, vmax=25, aspect="equal")
+    fig.colorbar(im, ax=ax, label="probed surface − undisturbed level, mm")
+    for h in holes:
+        level = (S < h.z_open - rad.mean())
+        ax.contour(xs, ys, level.T.astype(float), levels=[0.5], colors="k", linewidths=0.6)
+        ax.annotate(f"L0 {h.L0:.0f}\nL1 {h.L1:.0f}\nL2 {h.L2:.0f}\nh1 {h.h1:.0f}", (h.x, W - 4), ha="center",
+                    va="top", fontsize=7)
+    ax.set(xlabel="x along the travel, mm", ylabel="y, mm",
+           title=f"{summary['id']}: top of the bed; black: the openings (probe below the subsided level)")
+    fig.tight_layout()
+    fig.savefig(folder / "holes_top.png", dpi=110)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(2, len(holes), figsize=(4.2 * len(holes), 6.5), squeeze=False)
+    for k, h in enumerate(holes):
+        for row, (along, other, centre, grid_along, cut) in enumerate(
+                ((0, 1, W / 2, xs, S[:, np.argmin(np.abs(ys - W / 2))]),
+                 (1, 0, h.x, ys, S[np.argmin(np.abs(xs - h.x)), :]))):
+            ax = axes[row, k]
+            slab = np.abs(pos[:, other] - centre) < rad.mean()
+            near = np.abs(pos[:, along] - (h.x if along == 0 else W / 2)) < 90
+            sel = slab & near
+            for p, r in zip(pos[sel], rad[sel]):
+                ax.add_patch(plt.Circle((p[along], p[2] - z_surface), r, color="0.6", lw=0))
+            ax.plot(grid_along, cut - z_surface, "b-", lw=1, label="probed surface")
+            ax.axhline(h.z_open - z_surface, color="r", lw=0.8, ls="--", label="opening level (−h1)")
+            ax.axhline(h.z_open - z_surface - h.L2, color="m", lw=0.8, ls=":", label="L2")
+            mid = h.x if along == 0 else W / 2
+            ax.set(xlim=(mid - 90, mid + 90), ylim=(-cfg["preset"]["depth"], 40), aspect="equal",
+                   xlabel=("x" if along == 0 else "y") + ", mm", ylabel="z − undisturbed level, mm",
+                   title=f"hole {k + 1}, " + ("along the travel" if along == 0 else "across"))
+            if k == 0 and row == 0:
+                ax.legend(fontsize=7, loc="lower left")
+    fig.tight_layout()
+    fig.savefig(folder / "holes_sections.png", dpi=100)
+    plt.close(fig)

@@ -1,0 +1,43 @@
+"""The main job on the test strip: run (reusing test_disk's clay strip), measure, compare; and bad input."""
+import subprocess
+import sys
+
+import pytest
+
+from analysis.config import ROOT
+from analysis.io import read_table
+
+COLUMNS = {"preset", "soil", "metric", "field_mean", "field_min", "field_max", "sim_mean", "sim_sd", "ci_lo",
+           "ci_hi", "n_holes", "n_runs", "abs_error", "rel_error_pct", "inside_field_range", "theory_table1",
+           "theory_envelope", "passed_holes"}
+
+
+def compare(*args, dirs, out):
+    return subprocess.run([sys.executable, "-m", "analysis.cli", "compare", "--preset", "test", "--runs-dir",
+                           str(dirs[0]), "--bed-dir", str(dirs[1]), "--out", str(out), *args],
+                          capture_output=True, text=True, timeout=1500, cwd=ROOT)
+
+
+def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path):
+    r = compare("--soils", "clay", dirs=scene_dirs, out=tmp_path)
+    assert r.returncode == 0, r.stderr[-3000:]
+    table = read_table(tmp_path / "comparison.csv")
+    assert COLUMNS <= set(table.columns)
+    assert set(table.metric) == {"L0", "L1", "L2", "h1", "C", "pass_stated", "pass_field"}
+    hole_rows = table[~table.metric.str.startswith("pass")]
+    assert hole_rows[["field_mean", "sim_mean", "abs_error"]].notna().all().all()
+    assert (table.field_min <= table.field_mean).all() and (table.field_mean <= table.field_max).all()
+    holes = read_table(tmp_path / "comparison" / "test-holes.csv")
+    assert len(holes) == 2 and (holes.L2 > 0).all() and (holes.L0 > 0).all()
+    for m in table.metric:
+        assert (tmp_path / "comparison" / f"test-{m}.png").stat().st_size > 5000
+    assert "| clay | L0 |" in (tmp_path / "comparison.md").read_text()
+
+
+@pytest.mark.parametrize("args, field", [(["--preset", "huge"], "preset"), (["--soils", "peat"], "peat")])
+def test_compare_refuses_bad_input_before_any_scene(tmp_path, args, field):
+    r = subprocess.run([sys.executable, "-m", "analysis.cli", "compare", "--runs-dir", str(tmp_path / "runs"),
+                        "--bed-dir", str(tmp_path / "beds"), "--out", str(tmp_path), *args],
+                       capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert r.returncode == 2 and field in r.stderr
+    assert not (tmp_path / "beds").exists() and not (tmp_path / "runs").exists()

@@ -1,0 +1,92 @@
+"""Hole metrology (seed 001 §4.2) on synthetic beds with carved holes of known shape, and the pass logic."""
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis import compare
+from analysis.config import ConfigError, Seedling, load_criteria, threshold
+from analysis.metrology import measure_state
+from synthetic import carve, four_section_length, four_section_width, lattice_bed
+
+L0, W, STRAIGHT, TAPER, H1 = 92.0, 50.0, 45.0, 25.0, 13.0
+DIAMETER_MIN = 2 ** 0.5 * 25.0                        # √2·a2
+
+
+def carved_bed(r, turn, jitter, centres=(150.0,), length=300.0):
+    pos0, rad0 = lattice_bed(length, 160, 100, r, jitter=jitter, turn=turn)
+    z_top = np.percentile(pos0[:, 2] + rad0, 99)
+    pos, rad = pos0, rad0
+    for xc in centres:
+        pos, rad = carve(pos, rad, xc, 80, z_top, L0, W, STRAIGHT, TAPER, H1, ring=20)
+    return pos, rad, pos0, rad0
+
+
+@pytest.mark.parametrize("r", [3.0, 4.0])                # the paper and default resolutions
+@pytest.mark.parametrize("turn, jitter", [(0, 0.0), (30, 0.3)])
+def test_metrology_recovers_a_carved_hole_within_one_grain_radius(r, turn, jitter):
+    pos, rad, pos0, rad0 = carved_bed(r, turn, jitter)
+    (hole,), z_surface, _ = measure_state(pos, rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
+    expected = {"L0": four_section_length(L0, W), "L1": four_section_width(L0, W),
+                "L2": STRAIGHT + TAPER * (1 - DIAMETER_MIN / W), "h1": H1}
+    for name, value in expected.items():
+        assert getattr(hole, name) == pytest.approx(value, abs=r), name
+    assert hole.x == pytest.approx(150.0, abs=r)
+
+
+def test_spacing_between_two_carved_holes():
+    pos, rad, pos0, rad0 = carved_bed(3.0, 17, 0.2, centres=(100.0, 300.0), length=400.0)
+    holes, _, _ = measure_state(pos, rad, pos0, rad0, 160, [100.0, 300.0], 50.0, 80.0, DIAMETER_MIN)
+    assert holes[1].x - holes[0].x == pytest.approx(200.0, abs=3.0)
+
+
+def test_an_untouched_bed_has_no_opening():
+    pos0, rad0 = lattice_bed(300, 160, 100, 4.0, jitter=0.3, turn=10)
+    (hole,), _, _ = measure_state(pos0, rad0, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
+    assert hole.L0 == 0.0 and hole.L1 == 0.0 and abs(hole.h1) < 4.0
+
+
+def test_criteria_readings_and_a_bad_threshold():
+    crit = load_criteria()
+    assert crit["stated"] == pytest.approx({"L0": 35 * 2 ** 0.5, "L1": 35 * 2 ** 0.5, "L2": 40.0})
+    assert crit["field"]["L1"] == pytest.approx(35.0)
+    with pytest.raises(ConfigError, match="allowed NAME or sqrt2\\*NAME"):
+        threshold("2*a1", Seedling(35.0, 25.0, 40.0))
+
+
+def test_pass_rate_follows_the_per_hole_distributions():
+    crit = {"L0": 49.5, "L1": 49.5, "L2": 40.0}
+    wide = pd.DataFrame({"L0": [90.0, 95, 100], "L1": [60.0, 62, 64], "L2": [60.0, 62, 64]})
+    r = compare.pass_probability(wide, crit)
+    assert r["pass_pct"] > 99.9 and r["passed"] == 3
+    narrow = wide.assign(L1=[45.0, 46, 47])
+    r = compare.pass_probability(narrow, crit)
+    assert r["pass_pct"] < 1.0 and r["passed"] == 0
+    # a threshold at the mean gives one half, and the interval contains it
+    half = wide.assign(L2=[38.0, 40, 42])
+    r = compare.pass_probability(half, crit)
+    assert r["pass_pct"] == pytest.approx(50.0, abs=0.5) and r["pass_lo"] < 50 < r["pass_hi"]
+
+
+def test_interval_of_the_mean_uses_run_means_when_there_are_replicates():
+    one = pd.DataFrame({"run": ["a"] * 4, "L0": [90.0, 92, 94, 96]})
+    s = compare.metric_stats(one, "L0")
+    assert s["sim_mean"] == 93.0 and s["n_runs"] == 1
+    assert s["ci_hi"] - s["sim_mean"] == pytest.approx(3.182 * one.L0.std() / 2)
+    two = pd.DataFrame({"run": ["a", "a", "b", "b"], "L0": [90.0, 92, 94, 96]})
+    s = compare.metric_stats(two, "L0")
+    assert s["ci_hi"] - s["sim_mean"] == pytest.approx(12.706 * np.std([91, 95], ddof=1) / math.sqrt(2))
+
+
+def test_the_field_table_against_its_own_criteria():
+    """Sand's mean width (49.0 mm) is below √2·a1 (49.5 mm) yet 90.4 % of its holes passed: under the
+    stated reading its failing holes would have to be narrower than the pot's own side a1 on average."""
+    field = compare.field_table()
+    crit = load_criteria()
+    stated = compare.field_consistency(field, crit["stated"])
+    sand_l1 = stated[(stated.soil == "sand") & (stated.metric == "L1")]
+    assert (~sand_l1.mean_above_threshold).sum() >= 3
+    assert sand_l1.max_mean_of_failing_holes.min() < 35.0
+    relaxed = compare.field_consistency(field, crit["field"])
+    assert relaxed.mean_above_threshold.all()
