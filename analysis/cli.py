@@ -63,7 +63,7 @@ def cmd_compare(args) -> int:
     from analysis import compare_job
     try:
         return compare_job.run(args.preset, args.soils.split(","), [int(s) for s in args.seeds.split(",")],
-                               args.threads, args.parallel, args.runs_dir, args.bed_dir, args.out)
+                               args.threads, args.parallel, args.runs_dir, args.bed_dir, args.out, args.no_run)
     except ConfigError as e:
         print(f"compare: {e}", file=sys.stderr)
         return 2
@@ -152,6 +152,7 @@ def main(argv=None) -> int:
     p.add_argument("--runs-dir", help="default results/runs")
     p.add_argument("--bed-dir", help="default results/beds")
     p.add_argument("--out", help="where comparison.csv/.md and comparison/ go (default results)")
+    p.add_argument("--no-run", action="store_true", help="measure the finished runs only; run nothing")
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("calibration-report", help="table and resistance plot of the accepted calibrations")
     p.set_defaults(func=cmd_calibration_report)

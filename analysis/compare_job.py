@@ -61,7 +61,9 @@ def run_case(params: dict, threads: int, runs_dir: Path, bed_dir: Path) -> dict:
 
 
 def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, parallel: int = 1,
-        runs_dir: Path | None = None, bed_dir: Path | None = None, out: Path | None = None) -> int:
+        runs_dir: Path | None = None, bed_dir: Path | None = None, out: Path | None = None,
+        no_run: bool = False) -> int:
+    """Run what is missing (unless `no_run`: then only the finished runs are measured), measure, compare."""
     from scripts.disk import plan                      # pure Python: checks every input, no YADE
     from scripts.bed import BED_DIR
     runs_dir = Path(runs_dir or ROOT / "results/runs")
@@ -84,8 +86,12 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
         except RuntimeError as e:
             failures.append(str(e))
             say(str(e))
-    with ThreadPoolExecutor(max_workers=max(1, parallel)) as pool:
-        list(pool.map(one, cases))
+    if no_run:
+        for c in todo:
+            say(f"compare: {c['id']} ({c['soil']['name']} seed {c['seed']}) not run (--no-run); left out")
+    else:
+        with ThreadPoolExecutor(max_workers=max(1, parallel)) as pool:
+            list(pool.map(one, todo))
 
     finished = [c for c in cases if (runs_dir / c["id"] / "summary.json").exists()]
     if not finished:
