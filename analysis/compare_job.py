@@ -115,7 +115,7 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     folder.mkdir(parents=True, exist_ok=True)
     atomic_csv(holes.round(2), folder / f"{preset}-holes.csv", note)
     cost = (f"Cost: {len(costs)} runs, {int(costs.particles.mean())} grains each on average, "
-            f"{costs.wall_s.sum():.0f} s of wall time in all ({costs.threads.iloc[0]} threads per run; "
+            f"{costs.wall_s.sum():.0f} s of wall time in all ({'/'.join(map(str, sorted(set(costs.threads))))} threads per run; "
             f"{(costs.wall_s * 200 / costs.travel_mm).mean():.0f} s per 200 mm hole).")
     order = compare.ordering(table)
     order_text = "; ".join(f"{m}: field clay > loam > sand {'yes' if o['field'] else 'no'}, simulated "
