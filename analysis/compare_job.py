@@ -71,7 +71,10 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
     out = Path(out or ROOT / "results")
     cases = [plan(soil, preset, seed=seed) for soil in soils for seed in seeds]
     criteria = load_criteria()
-    todo = [c for c in cases if not (runs_dir / c["id"] / "summary.json").exists()]
+    def finished(c) -> bool:
+        return (runs_dir / c["id"] / "summary.json").exists()
+
+    todo = [c for c in cases if not finished(c)]
     say(f"compare {preset}: {len(cases)} runs ({len(cases) - len(todo)} finished earlier), "
         f"{parallel} at a time on {threads} threads each")
     wall0 = time.time()
@@ -80,7 +83,7 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
     def one(c):
         try:
             s = run_case(c, threads, runs_dir, bed_dir)
-            done = sum((runs_dir / x["id"] / "summary.json").exists() for x in cases)
+            done = sum(map(finished, cases))
             say(f"compare: {c['id']} done ({s['wall_s']:.0f} s); {done}/{len(cases)} runs finished, "
                 f"{time.time() - wall0:.0f} s so far")
         except RuntimeError as e:
@@ -93,22 +96,22 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
         with ThreadPoolExecutor(max_workers=max(1, parallel)) as pool:
             list(pool.map(one, todo))
 
-    finished = [c for c in cases if (runs_dir / c["id"] / "summary.json").exists()]
-    if not finished:
+    ready = [c for c in cases if finished(c)]
+    if not ready:
         say("compare: no run finished")
         return 1
-    holes = pd.concat([measure.run(runs_dir / c["id"]) for c in finished], ignore_index=True)
+    holes = pd.concat([measure.run(runs_dir / c["id"]) for c in ready], ignore_index=True)
     field = compare.field_table()
     table = compare.compare(holes, field, compare.theory_values(), criteria)
     table.insert(0, "preset", preset)
-    costs = pd.DataFrame([json.loads((runs_dir / c["id"] / "summary.json").read_text()) for c in finished])
-    write(out, preset, holes, table, field, costs, criteria, runs_dir, finished, soils, seeds)
+    costs = pd.DataFrame([json.loads((runs_dir / c["id"] / "summary.json").read_text()) for c in ready])
+    write(out, preset, holes, table, field, costs, criteria, runs_dir, ready, soils, seeds)
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures else 0
 
 
-def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, finished, soils, seeds):
+def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, ready, soils, seeds):
     command = f"./holes compare --preset {preset} --soils {','.join(soils)} --seeds {','.join(map(str, seeds))}"
     note = stamp(command)
     folder = out / "comparison"
@@ -135,7 +138,7 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     compare.plot(table[table.preset == preset], holes, field, preset, folder, note)
     atomic_csv(compare.field_consistency(field, criteria["stated"]), folder / "field_consistency.csv",
                "can each field run's pass rate be true under the stated criteria? see analysis/compare.py")
-    for c in finished:
+    for c in ready:
         if c["seed"] == min(seeds):
             for name in ("holes_top.png", "holes_sections.png"):
                 shutil.copyfile(runs_dir / c["id"] / name, folder / f"{preset}-{c['soil']['name']}-{name}")

@@ -30,8 +30,9 @@ def load_run(folder: Path):
 
 def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
     """One row per hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2 and
-    the bottom depth; the probe is the mean grain radius. Also returns the probed surfaces for pictures."""
-    cfg, summary, state = load_run(folder)
+    the bottom depth; the probe is the mean grain radius. Also returns what the pictures need: the hole
+    measures, the undisturbed level, the probed surface and the loaded run."""
+    cfg, summary, state = loaded = load_run(folder)
     seedling = load_seedling(seedling_path)
     pos, rad, pos0 = state["pos"] * 1000, state["radius"] * 1000, state["initial_pos"] * 1000
     holes, z_surface, surf = measure_state(pos, rad, pos0, rad, cfg["bed_size_mm"][1], summary["hole_x_mm"],
@@ -42,25 +43,25 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
              "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2,
              "bottom": h.bottom, "grain_radius": float(rad.mean()), "probe": float(rad.mean()), "cell": cell}
             for k, h in enumerate(holes)]
-    return pd.DataFrame(rows, columns=COLUMNS), holes, z_surface, surf
+    return pd.DataFrame(rows, columns=COLUMNS), holes, z_surface, surf, loaded
 
 
 def run(folder, cell: float = 1.0) -> pd.DataFrame:
     """Measure a finished run; write holes.csv and the pictures into its folder."""
     folder = Path(folder)
-    table, holes, z_surface, surf = measure_run(folder, cell)
+    table, holes, z_surface, surf, loaded = measure_run(folder, cell)
     atomic_csv(table.round(2), folder / "holes.csv", "holes measured by analysis/measure.py (mm); seed 001 §4.2")
-    plot(folder, holes, z_surface, surf)
+    plot(folder, loaded, holes, z_surface, surf)
     return table
 
 
-def plot(folder: Path, holes, z_surface: float, surf):
+def plot(folder: Path, loaded, holes, z_surface: float, surf):
     """holes_top.png: the probed surface with each opening's sections; holes_sections.png: along and across
     each hole through its centre, the grains in a slab one grain thick and the probed surface."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    cfg, summary, state = load_run(folder)
+    cfg, summary, state = loaded
     xs, ys, S = surf
     pos, rad = state["pos"] * 1000, state["radius"] * 1000
     W = cfg["bed_size_mm"][1]

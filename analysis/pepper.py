@@ -118,11 +118,12 @@ def motion(link: Linkage, theta1, omega: float):
     # D - const = L6∠θ6 + L4∠θ4  →  dD = i L6 θ6' e6 + i L4 θ4' e4 (2×2 real system per instant)
     c6, c4 = 1j * link.L6 * e6, 1j * link.L4 * e4
     det = c6.real * c4.imag - c6.imag * c4.real
-    w6 = (dD.real * c4.imag - dD.imag * c4.real) / det
-    w4 = (c6.real * dD.imag - c6.imag * dD.real) / det
-    rhs = ddD + link.L6 * w6 ** 2 * e6 + link.L4 * w4 ** 2 * e4
-    a6 = (rhs.real * c4.imag - rhs.imag * c4.real) / det
-    a4 = (c6.real * rhs.imag - c6.imag * rhs.real) / det
+
+    def rates(rhs):
+        """(θ6 term, θ4 term) with rhs = c6·x6 + c4·x4, x real (Cramer's rule per instant)."""
+        return ((rhs.real * c4.imag - rhs.imag * c4.real) / det, (c6.real * rhs.imag - c6.imag * rhs.real) / det)
+    w6, w4 = rates(dD)
+    _, a4 = rates(ddD + link.L6 * w6 ** 2 * e6 + link.L4 * w4 ** 2 * e4)
     eP = u(s["theta4"] + link.beta)
     dP = dD + 1j * w4 * (link.L8 * e4 + link.L7 * eP)
     ddP = ddD + (1j * a4 - w4 ** 2) * (link.L8 * e4 + link.L7 * eP)

@@ -344,15 +344,16 @@ def main(argv=None) -> int:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
     p.add_argument("--rerun", action="store_true", help="run again even if this run's folder has a summary")
     a = p.parse_args(argv)
+    runs = Path(a.out) if a.out else ROOT / "results/runs"
     try:
         params = plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
                       parse_overrides(a.set), a.disk_inertia)
-        done = (Path(a.out) if a.out else ROOT / "results/runs") / params["id"] / "summary.json"
+        done = runs / params["id"] / "summary.json"
         if done.exists() and not a.rerun and not a.vtk:
             print(f"run {params['id']}: finished earlier, reused (--rerun to run it again)", file=sys.stderr)
             print(json.dumps(json.loads(done.read_text())))
             return 0
-        summary = main_run(params, a.threads, Path(a.out) if a.out else None, Path(a.bed_dir), a.vtk)
+        summary = main_run(params, a.threads, runs, Path(a.bed_dir), a.vtk)
     except ConfigError as e:
         print(f"run: {e}", file=sys.stderr)
         return 2
@@ -360,7 +361,7 @@ def main(argv=None) -> int:
         print(f"run stopped: {e}", file=sys.stderr)
         return 3
     from analysis import run_report
-    run_report.run((Path(a.out) if a.out else ROOT / "results/runs") / summary["id"])
+    run_report.run(runs / summary["id"])
     print(json.dumps(summary))
     return 0
 
