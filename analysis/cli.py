@@ -69,6 +69,22 @@ def cmd_compare(args) -> int:
         return 2
 
 
+def cmd_pepper(args) -> int:
+    from analysis import pepper_design
+    out = Path(args.out) if args.out else ROOT / "results/pepper"
+    try:
+        result, table, written = pepper_design.run(out, "./holes pepper", starts=args.starts)
+    except (ConfigError, ValueError) as e:
+        print(f"pepper: {e}", file=sys.stderr)
+        return 2
+    print(table.round(2).to_string(index=False))
+    print(f"goal attainment: gamma {result.gamma:.2f} mm after {result.evaluations} evaluations from "
+          f"{result.starts} starts; margins: dead point {result.margins[0]:.1f} mm, assembly {result.margins[1]:.1f} mm")
+    for w in written:
+        print(f"wrote {w}")
+    return 0
+
+
 def cmd_calibration_report(args) -> int:
     from analysis import calibration_report
     print(calibration_report.run().to_string(index=False))
@@ -123,6 +139,10 @@ def main(argv=None) -> int:
     p.add_argument("--disk", default="configs/disk.toml", help="disk config (default: the seed's disk)")
     p.add_argument("--out", help="output folder (default results/theory/[disk name])")
     p.set_defaults(func=cmd_theory)
+    p = sub.add_parser("pepper", help="duck-beak mechanism (seed 000): goal-attainment design and results/pepper/")
+    p.add_argument("--starts", type=int, default=6, help="optimiser starts: Table 2's initial column + random")
+    p.add_argument("--out", help="output folder (default results/pepper)")
+    p.set_defaults(func=cmd_pepper)
     for name, script, text in (("bed", "bed.py", "settle and level a soil bed (cached by soil, resolution, size, seed)"),
                                ("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)"),
                                ("run", "disk.py", "the rolling punch disk with press sleeves in a soil strip")):

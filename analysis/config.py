@@ -216,7 +216,9 @@ PRESET_FIELDS = {
     "resolution": Field(kind=str, meaning="a section of configs/resolutions.toml"),
     "width": Field(40.0, 1000.0, unit="mm", meaning="bed width across the travel"),
     "depth": Field(40.0, 500.0, unit="mm", meaning="bed depth"),
-    "holes": Field(1, 20, kind=int, meaning="consecutive holes to form"),
+    "holes": Field(1, 20, kind=int, meaning="consecutive holes to measure"),
+    "lead_in": Field(0, 3, kind=int, meaning="holes formed before the measured ones (the strip's start-up)"),
+    "run_out": Field(0.0, 500.0, unit="mm", meaning="bed length past the last hole's front"),
     "dt_safety": Field(0.05, 1.0, meaning="time step / P-wave critical time step"),
 }
 
@@ -228,6 +230,8 @@ class Preset:
     width: float
     depth: float
     holes: int
+    lead_in: int
+    run_out: float
     dt_safety: float
 
 

@@ -76,7 +76,8 @@ class Layout:
     phi_out: float            # angle at which it leaves
     phi0: float               # punch 0's angle at t = 0
     x_axis0: float            # axis x at t = 0
-    hole_x: tuple             # x of each hole's centre (the axis x when that punch points straight down)
+    hole_x: tuple             # x of each formed hole's centre (the axis x when that punch points straight down)
+    lead_in: int              # the first `lead_in` holes are formed but not measured
     hole_rear: float          # hole extent behind / in front of its centre, from the swept outline
     hole_front: float
     length: float             # bed length, from x = 0
@@ -84,10 +85,13 @@ class Layout:
     pitch: float              # 2π/N: punch k leads punch 0 by k·pitch
 
 
-def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, tip_sphere: float = 0.0,
-           end_margin: float = 30.0, gap: float = 10.0) -> Layout:
+def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, lead_in: int = 0, run_out: float = 30.0,
+           tip_sphere: float = 0.0, gap: float = 10.0) -> Layout:
     """Place the disk so that punch 0 is the first to touch the bed (at x >= 0) and the punch already in the
-    soil at t = 0 stays `gap` mm clear of it; the bed ends `end_margin` mm past the last hole's front."""
+    soil at t = 0 stays `gap` mm clear of it. `lead_in` + `holes` holes are formed; the first `lead_in` are
+    not measured, because the first hole of a strip has no heave of a predecessor in front of it (measured:
+    quick runs' first holes were 31 mm longer than the second). The bed ends `run_out` mm past the last
+    hole's front."""
     outline = punch_outline(disk, tip_sphere)
     tip_reach = float(outline[:, 0].max())
     H0 = tip_reach - disk.penetration
@@ -110,9 +114,9 @@ def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, tip_sphere: fl
     if x_axis0 + adv * phi0 - hole_rear < 0:
         raise ConfigError(f"holes overlap: spacing {2 * np.pi * adv / disk.N:.1f} mm is shorter than a hole "
                           f"({hole_rear + hole_front:.1f} mm) plus the {gap:g} mm gap; allowed: slip or N smaller")
-    hole_x = tuple(float(x_axis0 + adv * (phi0 + k * pitch)) for k in range(holes))
-    length = hole_x[-1] + hole_front + end_margin
-    t_end = (phi0 + (holes - 1) * pitch - phi_out + np.radians(STOP_MARGIN_DEG)) / omega
+    hole_x = tuple(float(x_axis0 + adv * (phi0 + k * pitch)) for k in range(lead_in + holes))
+    length = hole_x[-1] + hole_front + run_out
+    t_end = (phi0 + (len(hole_x) - 1) * pitch - phi_out + np.radians(STOP_MARGIN_DEG)) / omega
     return Layout(omega=omega, speed=speed, slip=slip, H0=H0, tip_reach=tip_reach, phi_in=phi_in, phi_out=phi_out,
-                  phi0=float(phi0), x_axis0=float(x_axis0), hole_x=hole_x, hole_rear=hole_rear,
+                  phi0=float(phi0), x_axis0=float(x_axis0), hole_x=hole_x, lead_in=lead_in, hole_rear=hole_rear,
                   hole_front=hole_front, length=float(length), t_end=float(t_end), pitch=float(pitch))

@@ -29,13 +29,14 @@ def load_run(folder: Path):
 
 
 def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
-    """One row per hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2 and
+    """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2 and
     the bottom depth; the probe is the mean grain radius. Also returns what the pictures need: the hole
     measures, the undisturbed level, the probed surface and the loaded run."""
     cfg, summary, state = loaded = load_run(folder)
     seedling = load_seedling(seedling_path)
     pos, rad, pos0 = state["pos"] * 1000, state["radius"] * 1000, state["initial_pos"] * 1000
-    holes, z_surface, surf = measure_state(pos, rad, pos0, rad, cfg["bed_size_mm"][1], summary["hole_x_mm"],
+    measured_x = summary["hole_x_mm"][summary.get("lead_in", 0):]        # lead-in holes are not measured
+    holes, z_surface, surf = measure_state(pos, rad, pos0, rad, cfg["bed_size_mm"][1], measured_x,
                                            cfg["disk"]["D"], cfg["sleeve"]["outer_diameter"],
                                            2 ** 0.5 * seedling.a2, cell=cell)
     x = np.array([h.x for h in holes])

@@ -94,6 +94,16 @@ def closure_residual(link: Linkage, s: dict) -> np.ndarray:
     return np.maximum(np.abs(loop), np.abs(miss))
 
 
+def assembly_margin(link: Linkage, theta1) -> float:
+    """min over θ1 of how far |D - G - L5∠θ5| stays inside [|L6 - L4|, L6 + L4] (mm; negative: eq 13 has no
+    root somewhere). A few millimetres mean the chain D-E-F-G nearly folds flat (a toggle)."""
+    B = link.L1 * u(np.atleast_1d(np.asarray(theta1, float)))
+    C = link.L3 * u(link.theta3)
+    D = B + link.L2 * u(np.angle(C - B))
+    w = np.abs(D - link.L14 * u(link.alpha) - link.L5 * u(link.theta5))
+    return float(np.min(np.minimum(w - abs(link.L6 - link.L4), link.L6 + link.L4 - w)))
+
+
 def dead_point_margin(link: Linkage, s: dict) -> float:
     """min over the cycle of the distance of L_BE from the ends of (L_BD - L_DE, L_BD + L_DE), §3.1.2;
     negative when the constraint is broken."""

@@ -53,14 +53,14 @@ def run(folder) -> list[Path]:
     sc = a1.scatter(pos[band, 0], pos[band, 2] - z0, s=(rad[band] * 0.9) ** 2, c=np.minimum(disp[band], 30),
                     cmap="viridis", vmin=0, vmax=30)
     fig.colorbar(sc, ax=a1, label="displacement, mm (capped at 30)")
-    for x in summary["hole_x_mm"]:
-        a1.axvline(x, color="k", ls=":", lw=0.8)
+    for k, x in enumerate(summary["hole_x_mm"]):
+        a1.axvline(x, color="0.6" if k < summary.get("lead_in", 0) else "k", ls=":", lw=0.8)
     draw_disk(a1, cfg, summary)
     a1.axhline(0, color="grey", lw=0.5)
     a1.axhline(-cfg["disk"]["penetration"], color="r", ls="--", lw=0.8, label="configured tip depth")
     a1.set_aspect("equal")
     a1.set_ylabel("z - surface, mm")
-    a1.set_title(f"{summary['id']}: centre slab (|y - W/2| < 1.5 r); dotted: theoretical hole centres")
+    a1.set_title(f"{summary['id']}: centre slab (|y - W/2| < 1.5 r); dotted: theoretical hole centres (grey: lead-in)")
     a1.legend(loc="lower right", fontsize=8)
     x, y, top = height_map(pos, rad, 2 * rad.mean(), (0, L), (0, W))
     im = a2.imshow((top - z0).T, origin="lower", extent=(0, L, 0, W), cmap="terrain", vmin=-60, vmax=20,

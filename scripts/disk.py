@@ -31,7 +31,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (ROOT, ConfigError, Field, as_dict, load_disk, load_preset, load_sleeve,  # noqa: E402
+from analysis.config import (ROOT, ConfigError, Field, PRESET_FIELDS, as_dict, load_disk, load_preset, load_sleeve,  # noqa: E402
                              load_soil, parse_overrides, soil_with)
 from analysis.io import atomic_write  # noqa: E402
 from analysis.kinematics import TIP_SPHERE_RATIO, layout  # noqa: E402
@@ -55,15 +55,16 @@ def run_id(params: dict) -> str:
 def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml", slip: float | None = None,
          speed_kmh: float | None = None, holes: int | None = None, seed: int = 1, mode: str = "prescribed",
          width: float | None = None, depth: float | None = None, overrides: dict | None = None,
-         disk_inertia: float = 0.05) -> dict:
+         disk_inertia: float = 0.05, lead_in: int | None = None) -> dict:
     """Every parameter of the run, checked, before YADE starts."""
     if mode not in MODES:
         raise ConfigError(f"mode = {mode!r}: allowed {', '.join(MODES)}")
     disk = load_disk(disk_path)
     sleeve = load_sleeve(disk_path, disk)
     preset = load_preset(preset_name)
-    preset = dataclasses.replace(preset, **{k: v for k, v in (("width", width), ("depth", depth), ("holes", holes))
-                                            if v is not None})
+    changes = {k: v for k, v in (("width", width), ("depth", depth), ("holes", holes), ("lead_in", lead_in))
+               if v is not None}
+    preset = dataclasses.replace(preset, **{k: PRESET_FIELDS[k].check(f"run.{k}", v) for k, v in changes.items()})
     soil = soil_with(load_soil(soil_name), overrides or {})
     slip = RUN_FIELDS["slip"].check("run.slip", disk.slip if slip is None else slip)
     speed_kmh = RUN_FIELDS["speed_kmh"].check("run.speed_kmh", disk.speed_kmh if speed_kmh is None else speed_kmh)
@@ -74,7 +75,8 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
     if preset.width <= sleeve.outer_diameter:
         raise ConfigError(f"preset.width = {preset.width:g} is out of range: allowed > sleeve outer diameter "
                           f"{sleeve.outer_diameter:g} mm")
-    lay = layout(disk, speed_kmh, slip, preset.holes, tip_sphere=TIP_SPHERE_RATIO * disk.d)
+    lay = layout(disk, speed_kmh, slip, preset.holes, preset.lead_in, preset.run_out,
+                 tip_sphere=TIP_SPHERE_RATIO * disk.d)
     params = {"soil": as_dict(soil), "disk": as_dict(disk), "sleeve": as_dict(sleeve), "preset": as_dict(preset),
               "slip": slip, "speed_kmh": speed_kmh, "seed": seed, "mode": mode, "disk_inertia": disk_inertia,
               "layout": {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(lay).items()},
@@ -314,7 +316,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                "bed": meta["key"], "particles": n_particles, "steps": int(O.iter), "dt": O.dt, "wall_s": wall,
                "threads": threads, "particle_steps_per_s": n_particles * O.iter / wall,
                "travel_mm": v * O.time * 1000, "sim_time_s": O.time, "z_surface_m": z_surface,
-               "holes": len(lay.hole_x), "hole_x_mm": list(lay.hole_x),
+               "holes": len(lay.hole_x), "lead_in": lay.lead_in, "hole_x_mm": list(lay.hole_x),
                "tip_min_depth_mm": [-1000 * z for z in st["tip_min"][:len(lay.hole_x)]],
                "sleeve_max_travel_mm": [1000 * s for s in st["s_max"][:len(lay.hole_x)]],
                "slip_out": 1 - v / (st["theta"] / O.time * disk.R * mm) if O.time > 0 else None,
@@ -331,7 +333,8 @@ def main(argv=None) -> int:
     p.add_argument("--disk", default="configs/disk.toml")
     p.add_argument("--slip", type=float)
     p.add_argument("--speed", type=float, help="forward speed, km/h (default: the disk config's)")
-    p.add_argument("--holes", type=int)
+    p.add_argument("--holes", type=int, help="holes to measure (default: the preset's)")
+    p.add_argument("--lead-in", type=int, help="holes formed first and not measured (default: the preset's)")
     p.add_argument("--width", type=float, help="mm, overrides the preset")
     p.add_argument("--depth", type=float, help="mm, overrides the preset")
     p.add_argument("--mode", default="prescribed", help="prescribed | free")
@@ -347,7 +350,7 @@ def main(argv=None) -> int:
     runs = Path(a.out) if a.out else ROOT / "results/runs"
     try:
         params = plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
-                      parse_overrides(a.set), a.disk_inertia)
+                      parse_overrides(a.set), a.disk_inertia, a.lead_in)
         done = runs / params["id"] / "summary.json"
         if done.exists() and not a.rerun and not a.vtk:
             print(f"run {params['id']}: finished earlier, reused (--rerun to run it again)", file=sys.stderr)

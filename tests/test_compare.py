@@ -19,7 +19,7 @@ def compare(*args, dirs, out):
 
 
 def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path):
-    r = compare("--soils", "clay", dirs=scene_dirs, out=tmp_path)
+    r = compare("--soils", "clay", "--threads", "1", dirs=scene_dirs, out=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]
     table = read_table(tmp_path / "comparison.csv")
     assert COLUMNS <= set(table.columns)

@@ -23,8 +23,10 @@ def run_scene(tmp, *args, expect_ok=True, dirs=None):
 
 @pytest.fixture(scope="module")
 def two_holes(scene_dirs):
-    """The clay test strip with two holes (shared with test_compare, which reuses it)."""
-    summary = json.loads(run_scene(None, "--soil", "clay", dirs=scene_dirs).stdout.strip().splitlines()[-1])
+    """The clay test strip: a lead-in hole and two measured ones (shared with test_compare, which reuses it)."""
+    # one thread: the scene is deterministic (contact order on two threads varies from run to run)
+    summary = json.loads(run_scene(None, "--soil", "clay", "--threads", "1", dirs=scene_dirs).stdout.strip()
+                         .splitlines()[-1])
     return summary, scene_dirs[0] / summary["id"]
 
 
@@ -32,7 +34,7 @@ def test_tip_reaches_the_configured_depth_and_sleeves_work(two_holes):
     summary, run = two_holes
     disk = load_disk("configs/disk.toml")
     cfg = json.loads((run / "config.json").read_text())
-    assert summary["tip_min_depth_mm"] == pytest.approx([disk.penetration] * 2, abs=0.5)
+    assert summary["tip_min_depth_mm"] == pytest.approx([disk.penetration] * 3, abs=0.5)   # lead-in + 2
     travel_limit = cfg["sleeve"]["travel"]
     for s in summary["sleeve_max_travel_mm"]:
         assert 0.0 < s <= travel_limit
@@ -51,7 +53,7 @@ def test_spacing_is_2piR_over_N_and_no_grain_is_lost(two_holes):
     assert np.all((pos[:, 0] > -0.01) & (pos[:, 0] < L + 0.01) & (pos[:, 1] > -0.01) & (pos[:, 1] < W + 0.01)
                   & (pos[:, 2] > -0.01))
     x = deficit_centres(pos, state["initial_pos"], rad, W / 2, cfg["disk"]["D"] / 4000, 2 * rad.mean(),
-                        [h / 1000 for h in summary["hole_x_mm"]], 0.09)
+                        [h / 1000 for h in summary["hole_x_mm"][summary["lead_in"]:]], 0.09)
     expected = hole_spacing(load_disk("configs/disk.toml"), cfg["slip"]) / 1000
     assert abs((x[1] - x[0]) - expected) < 2 * rad.mean()
 
@@ -59,7 +61,7 @@ def test_spacing_is_2piR_over_N_and_no_grain_is_lost(two_holes):
 def test_free_rolling_at_low_resistance_rolls_without_slip(tmp_path):
     # One thread makes the scene deterministic: on two threads the contact order varies and the slip of
     # this short, one-hole strip scatters by about ±0.04 from run to run.
-    r = run_scene(tmp_path, "--soil", "clay", "--holes", "1", "--mode", "free", "--threads", "1",
+    r = run_scene(tmp_path, "--soil", "clay", "--holes", "1", "--lead-in", "0", "--mode", "free", "--threads", "1",
                   "--set", "normal_cohesion=0", "--set", "shear_cohesion=0")
     summary = json.loads(r.stdout.strip().splitlines()[-1])
     assert abs(summary["slip_out"]) < 0.1

@@ -14,10 +14,11 @@ DISK = load_disk("configs/disk.toml")
 
 @pytest.mark.parametrize("slip", [0.0, 0.1, 0.25])
 def test_holes_fall_at_the_theoretical_spacing_inside_the_strip(slip):
-    lay = layout(DISK, 1.9, slip, 3, tip_sphere=5.0)
+    lay = layout(DISK, 1.9, slip, 2, lead_in=1, run_out=100.0, tip_sphere=5.0)
+    assert len(lay.hole_x) == 3 and lay.lead_in == 1
     assert np.diff(lay.hole_x) == pytest.approx([hole_spacing(DISK, slip)] * 2, abs=1e-9)
     assert lay.hole_x[0] - lay.hole_rear > 0                       # the first hole lies wholly in the bed
-    assert lay.hole_x[-1] + lay.hole_front < lay.length
+    assert lay.length == pytest.approx(lay.hole_x[-1] + lay.hole_front + 100.0)
     lo, hi = swept_extent(DISK, slip, [0.0])                         # the same swept hole as the theory's
     assert lay.hole_rear + lay.hole_front == pytest.approx(hi[0] - lo[0], abs=3.0)
 

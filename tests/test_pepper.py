@@ -64,3 +64,27 @@ def test_an_unassemblable_linkage_is_a_clear_error():
 def test_moving_trajectory_metrics_are_those_of_a_planting_loop():
     m = trajectory_metrics(load_linkage("designed"), 300.0, OMEGA)
     assert m["crossed"] and 0 < m["depth"] < m["height"] and m["spread"] >= 0
+
+
+def test_goal_attainment_improves_every_goal_from_the_initial_values():
+    from analysis.pepper_design import design, goal_values, load_goals, margins, ranges, values
+    goals, bounds = load_goals(), ranges()
+    start = load_linkage("initial")
+    F0 = goal_values(start, goals, 3601)
+    d = design(start, goals, bounds, starts=2)
+    miss0, miss = np.abs(F0 - goals.target), np.abs(d.F - goals.target)
+    assert np.all(miss < miss0), (F0, d.F)
+    assert d.gamma == pytest.approx(max(miss / goals.weight))
+    x = values(d.link)
+    assert np.all(x >= bounds[:, 0] - 1e-9) and np.all(x <= bounds[:, 1] + 1e-9)     # inside Table 2's ranges
+    dead, assembly = margins(d.link, 3601)
+    assert dead >= goals.dead_point_margin - 0.05 and assembly >= goals.assembly_margin - 0.05
+
+
+def test_bad_goals_are_a_clear_error(tmp_path):
+    from analysis.config import ConfigError
+    from analysis.pepper_design import load_goals
+    text = open("configs/pepper.toml").read().replace("weight = [1.0, 1.0, 1.0]", "weight = [1.0, 0.0, 1.0]")
+    (tmp_path / "p.toml").write_text(text)
+    with pytest.raises(ConfigError, match="goals.weight"):
+        load_goals(tmp_path / "p.toml")
