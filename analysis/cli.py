@@ -69,6 +69,21 @@ def cmd_compare(args) -> int:
         return 2
 
 
+def cmd_study(args) -> int:
+    import os
+    from analysis import study
+    try:
+        if args.export_batch:
+            path = study.export_batch(args.file, Path(args.export_batch))
+            print(f"wrote {path}; run it with: yade-batch {path} scripts/batch_case.py")
+            return 0
+        workers = args.workers or max(1, (os.cpu_count() or 1) // args.threads)
+        return study.run(args.file, workers, args.threads, args.scheduler, args.runs_dir, args.bed_dir, args.out)
+    except ConfigError as e:
+        print(f"study: {e}", file=sys.stderr)
+        return 2
+
+
 def cmd_pepper(args) -> int:
     from analysis import pepper_design
     out = Path(args.out) if args.out else ROOT / "results/pepper"
@@ -139,6 +154,16 @@ def main(argv=None) -> int:
     p.add_argument("--disk", default="configs/disk.toml", help="disk config (default: the seed's disk)")
     p.add_argument("--out", help="output folder (default results/theory/[disk name])")
     p.set_defaults(func=cmd_theory)
+    p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
+    p.add_argument("file", help="study file, e.g. configs/studies/slip.toml")
+    p.add_argument("--workers", type=int, help="cases at a time (default: cores / threads)")
+    p.add_argument("--threads", type=int, default=1, help="YADE threads per case (default 1)")
+    p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786); default: local")
+    p.add_argument("--runs-dir", help="runs folder (default results/runs)")
+    p.add_argument("--bed-dir", help="beds folder (default results/beds)")
+    p.add_argument("--out", help="table folder (default results/studies)")
+    p.add_argument("--export-batch", metavar="TABLE", help="write a yade-batch parameter table instead of running")
+    p.set_defaults(func=cmd_study)
     p = sub.add_parser("pepper", help="duck-beak mechanism (seed 000): goal-attainment design and results/pepper/")
     p.add_argument("--starts", type=int, default=6, help="optimiser starts: Table 2's initial column + random")
     p.add_argument("--out", help="output folder (default results/pepper)")

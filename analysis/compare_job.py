@@ -9,55 +9,14 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
-import sys
-import threading
-import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pandas as pd
 
 from analysis import compare, measure
+from analysis.batch import finished, run_all, say
 from analysis.config import ROOT, load_criteria
 from analysis.io import atomic_csv, atomic_write, read_table, stamp
-
-_print_lock = threading.Lock()
-
-
-def say(msg: str):
-    with _print_lock:
-        print(msg, file=sys.stderr, flush=True)
-
-
-def run_case(params: dict, threads: int, runs_dir: Path, bed_dir: Path) -> dict:
-    """Run one scene (or reuse it); its progress lines are echoed with a [soil seed] prefix."""
-    tag = f"[{params['soil']['name']} seed {params['seed']}]"
-    log_path = runs_dir / f"{params['id']}.log"
-    runs_dir.mkdir(parents=True, exist_ok=True)
-    cmd = [sys.executable, str(ROOT / "scripts/disk.py"), "--soil", params["soil"]["name"], "--preset",
-           params["preset"]["name"], "--seed", str(params["seed"]), "--threads", str(threads), "--out",
-           str(runs_dir), "--bed-dir", str(bed_dir)]
-    with open(log_path, "w") as log:
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
-        last = [time.time()]
-
-        def pump():
-            for line in proc.stderr:
-                log.write(line)
-                log.flush()
-                if time.time() - last[0] > 20 or not line.startswith(("run:", "bed:")):
-                    last[0] = time.time()
-                    say(f"{tag} {line.rstrip()}")
-        t = threading.Thread(target=pump)
-        t.start()
-        out = proc.stdout.read()
-        proc.wait()
-        t.join()
-    if proc.returncode != 0:
-        tail = "".join(log_path.read_text().splitlines(keepends=True)[-15:])
-        raise RuntimeError(f"{tag} scripts/disk.py exited {proc.returncode}; log {log_path}:\n{tail}")
-    return json.loads(out.strip().splitlines()[-1])
 
 
 def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, parallel: int = 1,
@@ -71,32 +30,17 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
     out = Path(out or ROOT / "results")
     cases = [plan(soil, preset, seed=seed) for soil in soils for seed in seeds]
     criteria = load_criteria()
-    def finished(c) -> bool:
-        return (runs_dir / c["id"] / "summary.json").exists()
-
-    todo = [c for c in cases if not finished(c)]
-    say(f"compare {preset}: {len(cases)} runs ({len(cases) - len(todo)} finished earlier), "
-        f"{parallel} at a time on {threads} threads each")
-    wall0 = time.time()
-    failures = []
-
-    def one(c):
-        try:
-            s = run_case(c, threads, runs_dir, bed_dir)
-            done = sum(map(finished, cases))
-            say(f"compare: {c['id']} done ({s['wall_s']:.0f} s); {done}/{len(cases)} runs finished, "
-                f"{time.time() - wall0:.0f} s so far")
-        except RuntimeError as e:
-            failures.append(str(e))
-            say(str(e))
+    batch = [{"id": c["id"], "tag": f"[{c['soil']['name']} seed {c['seed']}]",
+              "args": ["--soil", c["soil"]["name"], "--preset", preset, "--seed", str(c["seed"])]} for c in cases]
     if no_run:
-        for c in todo:
-            say(f"compare: {c['id']} ({c['soil']['name']} seed {c['seed']}) not run (--no-run); left out")
+        failures = []
+        for c in cases:
+            if not finished(runs_dir, c["id"]):
+                say(f"compare: {c['id']} ({c['soil']['name']} seed {c['seed']}) not run (--no-run); left out")
     else:
-        with ThreadPoolExecutor(max_workers=max(1, parallel)) as pool:
-            list(pool.map(one, todo))
+        failures = run_all(batch, parallel, threads, runs_dir, bed_dir, label=f"compare {preset}")
 
-    ready = [c for c in cases if finished(c)]
+    ready = [c for c in cases if finished(runs_dir, c["id"])]
     if not ready:
         say("compare: no run finished")
         return 1

@@ -386,6 +386,22 @@ def soil_with(soil: Soil, overrides: dict) -> Soil:
     return dataclasses.replace(soil, **checked)
 
 
+def tool_with(disk: Disk, sleeve: Sleeve, changes: dict) -> tuple[Disk, Sleeve]:
+    """The disk and sleeve with some fields replaced (`--tool disk.D=45`, `--tool sleeve.stiffness=16`), checked
+    as the config files are (ranges and the cross-checks between fields)."""
+    d, s = as_dict(disk), as_dict(sleeve)
+    name = d.pop("name")
+    for key, value in changes.items():
+        part, _, field = key.partition(".")
+        target, schema = {"disk": (d, DISK_FIELDS), "sleeve": (s, SLEEVE_FIELDS)}.get(part, (None, None))
+        if target is None or field not in schema:
+            raise ConfigError(f"tool override {key!r}: allowed disk.<{'|'.join(DISK_FIELDS)}> or "
+                              f"sleeve.<{'|'.join(SLEEVE_FIELDS)}>")
+        target[field] = value
+    disk = disk_from_dict(d, "tool override: disk", name)
+    return disk, sleeve_from_dict(s, disk, "tool override: sleeve")
+
+
 def parse_overrides(items) -> dict:
     """`["friction_deg=20", ...]` -> {"friction_deg": 20.0}; a malformed item is a ConfigError."""
     out = {}
@@ -396,7 +412,7 @@ def parse_overrides(items) -> dict:
         except ValueError:
             sep = ""
         if not sep:
-            raise ConfigError(f"--set {item!r}: write KEY=NUMBER, e.g. friction_deg=20")
+            raise ConfigError(f"{item!r}: write KEY=NUMBER, e.g. friction_deg=20 or disk.D=45")
     return out
 
 

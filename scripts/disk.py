@@ -32,7 +32,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.config import (ROOT, ConfigError, Field, PRESET_FIELDS, as_dict, load_disk, load_preset, load_sleeve,  # noqa: E402
-                             load_soil, parse_overrides, soil_with)
+                             load_soil, parse_overrides, soil_with, tool_with)
 from analysis.io import atomic_write  # noqa: E402
 from analysis.kinematics import TIP_SPHERE_RATIO, layout  # noqa: E402
 
@@ -55,12 +55,12 @@ def run_id(params: dict) -> str:
 def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml", slip: float | None = None,
          speed_kmh: float | None = None, holes: int | None = None, seed: int = 1, mode: str = "prescribed",
          width: float | None = None, depth: float | None = None, overrides: dict | None = None,
-         disk_inertia: float = 0.05, lead_in: int | None = None) -> dict:
+         disk_inertia: float = 0.05, lead_in: int | None = None, tool: dict | None = None) -> dict:
     """Every parameter of the run, checked, before YADE starts."""
     if mode not in MODES:
         raise ConfigError(f"mode = {mode!r}: allowed {', '.join(MODES)}")
     disk = load_disk(disk_path)
-    sleeve = load_sleeve(disk_path, disk)
+    disk, sleeve = tool_with(disk, load_sleeve(disk_path, disk), tool or {})
     preset = load_preset(preset_name)
     changes = {k: v for k, v in (("width", width), ("depth", depth), ("holes", holes), ("lead_in", lead_in))
                if v is not None}
@@ -345,12 +345,14 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="runs folder (default results/runs)")
     p.add_argument("--bed-dir", default=str(bed.BED_DIR))
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
+    p.add_argument("--tool", action="append", metavar="PART.KEY=VALUE",
+                   help="override a disk or sleeve field, e.g. disk.D=45, sleeve.stiffness=16")
     p.add_argument("--rerun", action="store_true", help="run again even if this run's folder has a summary")
     a = p.parse_args(argv)
     runs = Path(a.out) if a.out else ROOT / "results/runs"
     try:
         params = plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
-                      parse_overrides(a.set), a.disk_inertia, a.lead_in)
+                      parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool))
         done = runs / params["id"] / "summary.json"
         if done.exists() and not a.rerun and not a.vtk:
             print(f"run {params['id']}: finished earlier, reused (--rerun to run it again)", file=sys.stderr)

@@ -1,0 +1,110 @@
+"""Running many disk scenes: each case is its own YADE process (scripts/disk.py) in runs/<id>/, named by a hash
+of its parameters. A finished case (summary.json present) is never run again; a failed one raises with the
+tail of its log and the others go on. Local worker threads by default; a Dask distributed scheduler when
+one is given (its workers need this project at the same path and a shared runs folder).
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor, as_completed
+from pathlib import Path
+
+from analysis.config import ROOT
+
+_print_lock = threading.Lock()
+
+
+def say(msg: str):
+    with _print_lock:
+        print(msg, file=sys.stderr, flush=True)
+
+
+def finished(runs_dir: Path, case_id: str) -> bool:
+    return (Path(runs_dir) / case_id / "summary.json").exists()
+
+
+def run_case(args: list[str], case_id: str, tag: str, threads: int, runs_dir, bed_dir, echo: bool = True) -> dict:
+    """Run one scene (`scripts/disk.py ARGS`) or reuse it; its log goes to runs/<id>.log and its progress
+    lines are echoed with `tag` (every 20 s at most). Returns the run's summary; RuntimeError if it failed."""
+    runs_dir, bed_dir = Path(runs_dir), Path(bed_dir)
+    log_path = runs_dir / f"{case_id}.log"
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    cmd = [sys.executable, str(ROOT / "scripts/disk.py"), *args, "--threads", str(threads), "--out", str(runs_dir),
+           "--bed-dir", str(bed_dir)]
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+        last = [time.time()]
+
+        def pump():
+            for line in proc.stderr:
+                log.write(line)
+                log.flush()
+                if echo and (time.time() - last[0] > 20 or not line.startswith(("run:", "bed:"))):
+                    last[0] = time.time()
+                    say(f"{tag} {line.rstrip()}")
+        t = threading.Thread(target=pump)
+        t.start()
+        out = proc.stdout.read()
+        proc.wait()
+        t.join()
+    if proc.returncode != 0:
+        tail = "".join(log_path.read_text().splitlines(keepends=True)[-15:])
+        raise RuntimeError(f"{tag} scripts/disk.py exited {proc.returncode}; log {log_path}:\n{tail}")
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def run_all(cases: list[dict], workers: int, threads: int, runs_dir, bed_dir, on_done=None,
+            scheduler: str | None = None, label: str = "batch") -> list[str]:
+    """Run every case that has not finished. A case is {"id", "tag", "args"}. `on_done(case, summary)` is
+    called in this process as each finishes. Progress: finished / running / failed counts with an ETA.
+    Returns the failure messages."""
+    todo = [c for c in cases if not finished(runs_dir, c["id"])]
+    n_done0 = len(cases) - len(todo)
+    say(f"{label}: {len(cases)} cases, {n_done0} finished earlier, {len(todo)} to run "
+        f"({'scheduler ' + scheduler if scheduler else f'{workers} local workers'}, {threads} threads each)")
+    failures, durations = [], []
+    wall0 = time.time()
+
+    def progress(case, ok: bool):
+        done = n_done0 + len(durations)
+        left = len(todo) - len(durations) - len(failures)
+        running = min(left, workers) if not scheduler else left
+        eta = (sum(durations) / len(durations)) * left / max(1, workers) if durations else float("nan")
+        say(f"{label}: {case['id']} {'finished' if ok else 'FAILED'}; {done}/{len(cases)} finished, "
+            f"{running} running, {len(failures)} failed, {time.time() - wall0:.0f} s so far, ETA {eta:.0f} s")
+
+    def collect(case, result):
+        try:
+            summary = result()
+        except Exception as e:                      # a failing case is reported; the others go on
+            failures.append(str(e))
+            progress(case, False)
+            say(str(e))
+            return
+        durations.append(summary["wall_s"])
+        progress(case, True)
+        if on_done:
+            try:
+                on_done(case, summary)
+            except Exception as e:                  # the case's run folder is complete; only its report failed
+                failures.append(f"{case['tag']} finished, but its report failed: {e!r}")
+                say(failures[-1])
+
+    if scheduler:
+        from distributed import Client, as_completed as dask_completed
+        with Client(scheduler) as client:
+            futures = {client.submit(run_case, c["args"], c["id"], c["tag"], threads, str(runs_dir), str(bed_dir),
+                                     False, key=f"case-{c['id']}", pure=False): c for c in todo}
+            for fut in dask_completed(futures):
+                collect(futures[fut], fut.result)
+    else:
+        with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+            futures = {pool.submit(run_case, c["args"], c["id"], c["tag"], threads, runs_dir, bed_dir): c
+                       for c in todo}
+            for fut in as_completed(futures):
+                collect(futures[fut], fut.result)
+    return failures

@@ -1,0 +1,201 @@
+"""Parameter studies (`./holes study configs/studies/NAME.toml`): a grid or a list of cases over run fields,
+each case one disk scene (analysis/batch.py), one tidy table per study in results/studies/NAME.csv.
+
+A study file:
+    [study]   name, description, metric (the column the plot puts on its y axes; default L0)
+    [base]    fields every case shares (soil = "clay", preset = "quick", seed = 1, ...)
+    [grid]    field = [values ...]: every combination            } one of the two, or both
+    [[case]]  field = value ...: one case each                    } (grid cases, then the listed ones)
+Fields: soil, preset, seed, slip, speed_kmh, holes, lead_in, width, depth, mode; disk.<field> and
+sleeve.<field> (configs/disk.toml) and soil.<field> (the soil's contact parameters).
+"""
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.batch import finished, run_all, say
+from analysis.config import ROOT, ConfigError, load_criteria, read_toml
+from analysis.io import atomic_csv, atomic_write, stamp
+
+PLAIN = {"soil": "--soil", "preset": "--preset", "seed": "--seed", "slip": "--slip", "speed_kmh": "--speed",
+         "holes": "--holes", "lead_in": "--lead-in", "width": "--width", "depth": "--depth", "mode": "--mode"}
+PREFIXED = {"disk": "--tool", "sleeve": "--tool", "soil": "--set"}
+METRICS = ("L0", "L1", "L2", "h1", "C")
+
+
+def case_args(case: dict) -> list[str]:
+    """The scripts/disk.py arguments of one case."""
+    args = []
+    for key, value in case.items():
+        part, dot, field = key.partition(".")
+        if not dot and key in PLAIN:
+            args += [PLAIN[key], str(value)]
+        elif dot and part in PREFIXED:
+            args += [PREFIXED[part], f"{key if part != 'soil' else field}={value}"]
+        else:
+            raise ConfigError(f"study field {key!r}: allowed {', '.join(PLAIN)}, disk.<field>, sleeve.<field>, "
+                              "soil.<field>")
+    return args
+
+
+def plan_case(case: dict) -> dict:
+    """Check one case completely (scripts/disk.py's plan, no YADE) and return its run parameters."""
+    from scripts.disk import plan
+    from analysis.config import parse_overrides
+    def get(k, default=None):
+        return case.get(k, default)
+    tool = parse_overrides([f"{k}={v}" for k, v in case.items() if k.split(".")[0] in ("disk", "sleeve")])
+    soil = parse_overrides([f"{k.split('.', 1)[1]}={v}" for k, v in case.items() if k.startswith("soil.")])
+    case_args(case)                                       # unknown fields are an error here too
+    return plan(get("soil", "clay"), get("preset", "quick"), slip=get("slip"), speed_kmh=get("speed_kmh"),
+                holes=get("holes"), seed=get("seed", 1), mode=get("mode", "prescribed"), width=get("width"),
+                depth=get("depth"), overrides=soil, lead_in=get("lead_in"), tool=tool)
+
+
+def load_study(path) -> tuple[dict, list[dict]]:
+    """The study's header and its cases (each a dict of fields), every case checked before any runs."""
+    data = read_toml(path)
+    unknown = sorted(set(data) - {"study", "base", "grid", "case"})
+    if unknown:
+        raise ConfigError(f"{path}: unknown section(s) {', '.join(unknown)}; allowed study, base, grid, case")
+    head = data.get("study", {})
+    if "name" not in head:
+        raise ConfigError(f"{path}: [study] needs a name")
+    base = data.get("base", {})
+    grid = data.get("grid", {})
+    for k, v in grid.items():
+        if not isinstance(v, list) or not v:
+            raise ConfigError(f"{path}: grid.{k} = {v!r}: allowed a non-empty list of values")
+    cases = [{**base, **dict(zip(grid, combo))} for combo in itertools.product(*grid.values())] if grid else []
+    cases += [{**base, **c} for c in data.get("case", [])]
+    if not cases:
+        raise ConfigError(f"{path}: no cases (give [grid] lists or [[case]] tables)")
+    for i, c in enumerate(cases):
+        try:
+            c["_params"] = plan_case(c)
+        except ConfigError as e:
+            raise ConfigError(f"{path}: case {i + 1} ({', '.join(f'{k}={v}' for k, v in c.items())}): {e}") from None
+    ids = [c["_params"]["id"] for c in cases]
+    if len(set(ids)) < len(ids):
+        raise ConfigError(f"{path}: two cases have the same parameters")
+    return head, cases
+
+
+def case_row(case: dict, runs_dir: Path, criteria: dict) -> dict:
+    """One tidy row: the case's fields, its cost and its holes' means and pass rate (stated reading)."""
+    from analysis import measure
+    run = runs_dir / case["_params"]["id"]
+    summary = json.loads((run / "summary.json").read_text())
+    holes = measure.run(run)
+    stated = criteria["stated"]
+    passed = np.all([holes[m] > stated[m] for m in stated], axis=0)
+    row = {k: v for k, v in case.items() if not k.startswith("_")}
+    row.update({"run": summary["id"], "holes": len(holes)})
+    row.update({m: float(holes[m].mean()) for m in METRICS})
+    row.update({f"{m}_sd": float(holes[m].std(ddof=1)) if len(holes) > 1 else np.nan for m in METRICS})
+    row.update({"pass_rate": float(passed.mean()), "passed": int(passed.sum()),
+                "wall_s": summary["wall_s"], "particles": summary["particles"], "steps": summary["steps"],
+                "threads": summary["threads"], "slip_out": summary.get("slip_out")})
+    return row
+
+
+def write_table(name: str, head: dict, cases: list[dict], runs_dir: Path, out: Path, command: str):
+    """results/studies/NAME.csv from every finished case (rebuilt each time, written atomically: a crash
+    or a killed case never leaves a partial row) and its plot."""
+    criteria = load_criteria()
+    rows = [case_row(c, runs_dir, criteria) for c in cases if finished(runs_dir, c["_params"]["id"])]
+    if not rows:
+        return None
+    table = pd.DataFrame(rows)
+    note = stamp(command)
+    atomic_csv(table.round(4), out / f"{name}.csv", note)
+    plot(table, head, out / f"{name}.png", note)
+    return table
+
+
+def varied(table: pd.DataFrame, cases: list[dict]) -> list[str]:
+    keys = [k for k in cases[0] if not k.startswith("_")]
+    return [k for k in keys if table[k].nunique() > 1] if len(table) else []
+
+
+def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
+    """Each hole metric and the pass rate against the study's first varied field (a line per other value)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    keys = [k for k in table.columns if k not in ("run", "holes", "passed", "wall_s", "particles", "steps",
+                                                  "threads", "slip_out", "pass_rate", *METRICS)
+            and not k.endswith("_sd") and table[k].nunique() > 1]
+    x = keys[0] if keys else "run"
+    group = keys[1] if len(keys) > 1 else None
+    fig, axes = plt.subplots(2, 3, figsize=(13, 7))
+    for ax, m in zip(axes.flat, (*METRICS, "pass_rate")):
+        for label, part in (table.groupby(group) if group else [(None, table)]):
+            part = part.sort_values(x)
+            err = part.get(f"{m}_sd")                  # SD over a case's holes; none with one hole
+            ax.errorbar(part[x], part[m], yerr=None if err is None else err.fillna(0.0), marker="o", capsize=3,
+                        label=f"{group} = {label}" if group else None)
+        ax.set_xlabel(x)
+        ax.set_ylabel(m + (" (stated criteria)" if m == "pass_rate" else ", mm"))
+        ax.grid(alpha=0.3)
+    if group:
+        axes.flat[0].legend(fontsize=7)
+    fig.suptitle(f"study {head['name']}: {head.get('description', '')}\n{note}", fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run(path, workers: int = 1, threads: int = 2, scheduler: str | None = None, runs_dir=None, bed_dir=None,
+        out=None) -> int:
+    from scripts.bed import BED_DIR
+    head, cases = load_study(path)
+    runs_dir = Path(runs_dir or ROOT / "results/runs")
+    bed_dir = Path(bed_dir or BED_DIR)
+    out = Path(out or ROOT / "results/studies")
+    name = head["name"]
+    command = f"./holes study {path}"
+    batch = [{"id": c["_params"]["id"], "args": case_args({k: v for k, v in c.items() if not k.startswith("_")}),
+              "tag": f"[{name} {', '.join(f'{k}={v}' for k, v in c.items() if not k.startswith('_'))}]"}
+             for c in cases]
+    failures = run_all(batch, workers, threads, runs_dir, bed_dir, scheduler=scheduler, label=f"study {name}",
+                       on_done=lambda c, s: write_table(name, head, cases, runs_dir, out, command))
+    table = write_table(name, head, cases, runs_dir, out, command)
+    if table is not None:
+        say(f"study {name}: {len(table)}/{len(cases)} cases in {out / (name + '.csv')}")
+    for f in failures:
+        say(f"FAILED: {f.splitlines()[0]}")
+    return 1 if failures or table is None else 0
+
+
+def export_batch(path, table_path: Path) -> Path:
+    """The study as a yade-batch parameter table: a `description` column (the run id) and one column per
+    field, one line per case ("-": the field is not set in that case). `yade-batch TABLE
+    scripts/batch_case.py` runs the same cases: each job hands its line to scripts/disk.py."""
+    _, cases = load_study(path)
+    keys = list(dict.fromkeys(k for c in cases for k in c if not k.startswith("_")))
+    lines = [" ".join(["description", *keys])]
+    for c in cases:
+        cells = [str(c.get(k, "-")) for k in keys]
+        if any(not cell or any(ch.isspace() for ch in cell) for cell in cells):
+            raise ConfigError(f"{path}: a value with spaces cannot go into a yade-batch table: {cells}")
+        lines.append(" ".join([c["_params"]["id"], *cells]))
+    atomic_write(table_path, "\n".join(lines) + "\n")
+    return table_path
+
+
+def case_from_table_line(table_path, line: int) -> tuple[str, dict]:
+    """(description, case fields) of one line (1-based, as yade-batch counts) of an exported table."""
+    rows = Path(table_path).read_text().splitlines()
+    head, cells = rows[0].split(), rows[line - 1].split()
+    case = {}
+    for k, v in zip(head[1:], cells[1:]):
+        if v != "-":
+            case[k] = v
+    return cells[0], case

@@ -1,0 +1,103 @@
+"""Batch studies (issue 6): 4 tiny cases on 2 local workers with a kill and a resume; a failing case on a Dask
+LocalCluster (2 workers over loopback TCP) is reported while the other finishes; bad study files."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from analysis.config import ROOT, ConfigError
+from analysis.io import read_table
+from analysis.study import case_args, case_from_table_line, export_batch, load_study
+
+# one punch passage on the test strip, fast (fewer steps): studies here test the batch machinery
+TINY = {"soil": "clay", "preset": "test", "holes": 1, "lead_in": 0, "speed_kmh": 5.0}
+
+
+def study_file(tmp_path, name, grid: dict, cases=()):
+    lines = ["[study]", f'name = "{name}"', "[base]"]
+    lines += [f"{k} = {json.dumps(v)}" for k, v in TINY.items()]
+    lines += ["[grid]"] + [f'"{k}" = {json.dumps(v)}' for k, v in grid.items()]
+    for c in cases:
+        lines += ["[[case]]"] + [f'"{k}" = {json.dumps(v)}' for k, v in c.items()]
+    path = tmp_path / f"{name}.toml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def study(path, tmp_path, *args, wait=True):
+    cmd = [sys.executable, "-m", "analysis.cli", "study", str(path), "--runs-dir", str(tmp_path / "runs"),
+           "--bed-dir", str(tmp_path / "beds"), "--out", str(tmp_path / "studies"), *args]
+    if not wait:
+        return subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, cwd=ROOT,
+                                start_new_session=True)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=1500, cwd=ROOT)
+
+
+def test_four_cases_on_two_workers_survive_a_kill_and_resume(tmp_path):
+    path = study_file(tmp_path, "four", {"speed_kmh": [3.0, 5.0], "sleeve.stiffness": [4.0, 8.0]})
+    _, cases = load_study(path)
+    ids = [c["_params"]["id"] for c in cases]
+    proc = study(path, tmp_path, "--workers", "2", "--threads", "1", wait=False)
+    for line in proc.stderr:                               # kill the whole study when its first case finishes
+        if " finished; " in line:
+            os.killpg(proc.pid, signal.SIGKILL)
+            break
+    proc.wait()
+    done = [i for i in ids if (tmp_path / "runs" / i / "summary.json").exists()]
+    assert 1 <= len(done) < 4
+    if (tmp_path / "studies/four.csv").exists():           # the kill may come before the first table
+        assert set(read_table(tmp_path / "studies/four.csv").run) <= set(done)   # no row for a killed case
+    stamps = {i: (tmp_path / "runs" / i / "summary.json").stat().st_mtime for i in done}
+
+    r = study(path, tmp_path, "--workers", "2", "--threads", "1")
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert f"{len(done)} finished earlier, {4 - len(done)} to run" in r.stderr
+    assert all((tmp_path / "runs" / i / "summary.json").stat().st_mtime == t for i, t in stamps.items())
+    table = read_table(tmp_path / "studies/four.csv")
+    assert sorted(table.run) == sorted(ids) and len(table) == 4
+    assert {"speed_kmh", "sleeve.stiffness", "L0", "L1", "L2", "h1", "pass_rate", "wall_s", "particles",
+            "steps"} <= set(table.columns)
+    assert (table.L0 > 0).all() and (table.L2 > 0).all() and (table.steps > 0).all()
+    assert (tmp_path / "studies/four.png").stat().st_size > 5000
+
+
+def test_a_failing_case_on_a_dask_cluster_is_reported_and_the_other_finishes(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    path = study_file(tmp_path, "dask", {"sleeve.stiffness": [2.0, 16.0]})
+    _, cases = load_study(path)
+    bad = cases[0]["_params"]["id"]
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "runs" / bad).write_text("a file where the run folder should go")   # the run cannot write
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        assert cluster.scheduler_address.startswith("tcp://127.0.0.1")
+        r = study(path, tmp_path, "--scheduler", cluster.scheduler_address, "--threads", "1")
+    assert r.returncode == 1
+    assert "FAILED" in r.stderr and bad in r.stderr and f"{bad}.log" in r.stderr
+    table = read_table(tmp_path / "studies/dask.csv")
+    assert list(table.run) == [cases[1]["_params"]["id"]]
+
+
+@pytest.mark.parametrize("grid, field", [({"slip": [0.0, 1.5]}, "slip"), ({"disk.Q": [1.0]}, "disk.Q"),
+                                         ({"colour": ["red"]}, "colour"), ({"sleeve.stiffness": [-1.0]}, "stiffness")])
+def test_a_bad_study_names_the_field_before_any_scene(tmp_path, grid, field):
+    r = study(study_file(tmp_path, "bad", grid), tmp_path)
+    assert r.returncode == 2 and field in r.stderr and "allowed" in r.stderr
+    assert not (tmp_path / "runs").exists() and not (tmp_path / "beds").exists()
+
+
+def test_the_yade_batch_table_holds_the_same_cases(tmp_path):
+    path = study_file(tmp_path, "table", {"slip": [0.0, 0.1]}, cases=[{"disk.D": 45.0}])
+    _, cases = load_study(path)
+    table = export_batch(path, tmp_path / "t.table")
+    for line, c in enumerate(cases, start=2):
+        description, fields = case_from_table_line(table, line)
+        assert description == c["_params"]["id"]
+        expected = {k: v for k, v in c.items() if not k.startswith("_")}
+        assert case_args(fields) == case_args({k: str(v) for k, v in expected.items()})
+    with pytest.raises(ConfigError, match="no cases"):
+        load_study(study_file(tmp_path, "empty", {}))
