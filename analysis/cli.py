@@ -147,6 +147,14 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def scene_batch_options(p, threads: int, out_help: str):
+    """The options every batch of disk scenes shares (compare, study)."""
+    p.add_argument("--threads", type=int, default=threads, help=f"YADE threads per run (default {threads})")
+    p.add_argument("--runs-dir", help="runs folder (default results/runs)")
+    p.add_argument("--bed-dir", help="beds folder (default results/beds)")
+    p.add_argument("--out", help=out_help)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="holes", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -157,11 +165,8 @@ def main(argv=None) -> int:
     p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
     p.add_argument("file", help="study file, e.g. configs/studies/slip.toml")
     p.add_argument("--workers", type=int, help="cases at a time (default: cores / threads)")
-    p.add_argument("--threads", type=int, default=1, help="YADE threads per case (default 1)")
     p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786); default: local")
-    p.add_argument("--runs-dir", help="runs folder (default results/runs)")
-    p.add_argument("--bed-dir", help="beds folder (default results/beds)")
-    p.add_argument("--out", help="table folder (default results/studies)")
+    scene_batch_options(p, 1, "table folder (default results/studies)")
     p.add_argument("--export-batch", metavar="TABLE", help="write a yade-batch parameter table instead of running")
     p.set_defaults(func=cmd_study)
     p = sub.add_parser("pepper", help="duck-beak mechanism (seed 000): goal-attainment design and results/pepper/")
@@ -192,11 +197,8 @@ def main(argv=None) -> int:
     p.add_argument("--preset", default="quick")
     p.add_argument("--soils", default="clay,loam,sand")
     p.add_argument("--seeds", default="1", help="packing seeds, one run each, e.g. 1,2,3")
-    p.add_argument("--threads", type=int, default=2, help="threads per run")
     p.add_argument("--parallel", type=int, default=1, help="runs at a time")
-    p.add_argument("--runs-dir", help="default results/runs")
-    p.add_argument("--bed-dir", help="default results/beds")
-    p.add_argument("--out", help="where comparison.csv/.md and comparison/ go (default results)")
+    scene_batch_options(p, 2, "where comparison.csv/.md and comparison/ go (default results)")
     p.add_argument("--no-run", action="store_true", help="measure the finished runs only; run nothing")
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("calibration-report", help="table and resistance plot of the accepted calibrations")
