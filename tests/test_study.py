@@ -28,20 +28,20 @@ def study_file(tmp_path, name, grid: dict, cases=()):
     return path
 
 
-def study(path, tmp_path, *args, wait=True):
+def study(path, tmp_path, *args, wait=True, beds=None):
     cmd = [sys.executable, "-m", "analysis.cli", "study", str(path), "--runs-dir", str(tmp_path / "runs"),
-           "--bed-dir", str(tmp_path / "beds"), "--out", str(tmp_path / "studies"), *args]
+           "--bed-dir", str(beds or tmp_path / "beds"), "--out", str(tmp_path / "studies"), *args]
     if not wait:
         return subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, cwd=ROOT,
                                 start_new_session=True)
     return subprocess.run(cmd, capture_output=True, text=True, timeout=1500, cwd=ROOT)
 
 
-def test_four_cases_on_two_workers_survive_a_kill_and_resume(tmp_path):
-    path = study_file(tmp_path, "four", {"speed_kmh": [3.0, 5.0], "sleeve.stiffness": [4.0, 8.0]})
+def test_four_cases_on_two_workers_survive_a_kill_and_resume(tmp_path, scene_dirs):
+    path = study_file(tmp_path, "four", {"speed_kmh": [4.0, 5.0], "sleeve.stiffness": [4.0, 8.0]})
     _, cases = load_study(path)
     ids = [c["_params"]["id"] for c in cases]
-    proc = study(path, tmp_path, "--workers", "2", "--threads", "1", wait=False)
+    proc = study(path, tmp_path, "--workers", "2", "--threads", "1", wait=False, beds=scene_dirs[1])
     for line in proc.stderr:                               # kill the whole study when its first case finishes
         if " finished; " in line:
             os.killpg(proc.pid, signal.SIGKILL)
@@ -53,7 +53,7 @@ def test_four_cases_on_two_workers_survive_a_kill_and_resume(tmp_path):
         assert set(read_table(tmp_path / "studies/four.csv").run) <= set(done)   # no row for a killed case
     stamps = {i: (tmp_path / "runs" / i / "summary.json").stat().st_mtime for i in done}
 
-    r = study(path, tmp_path, "--workers", "2", "--threads", "1")
+    r = study(path, tmp_path, "--workers", "2", "--threads", "1", beds=scene_dirs[1])
     assert r.returncode == 0, r.stderr[-3000:]
     assert f"{len(done)} finished earlier, {4 - len(done)} to run" in r.stderr
     assert all((tmp_path / "runs" / i / "summary.json").stat().st_mtime == t for i, t in stamps.items())
@@ -65,7 +65,7 @@ def test_four_cases_on_two_workers_survive_a_kill_and_resume(tmp_path):
     assert (tmp_path / "studies/four.png").stat().st_size > 5000
 
 
-def test_a_failing_case_on_a_dask_cluster_is_reported_and_the_other_finishes(tmp_path):
+def test_a_failing_case_on_a_dask_cluster_is_reported_and_the_other_finishes(tmp_path, scene_dirs):
     distributed = pytest.importorskip("distributed")
     path = study_file(tmp_path, "dask", {"sleeve.stiffness": [2.0, 16.0]})
     _, cases = load_study(path)
@@ -75,7 +75,7 @@ def test_a_failing_case_on_a_dask_cluster_is_reported_and_the_other_finishes(tmp
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster:
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1")
-        r = study(path, tmp_path, "--scheduler", cluster.scheduler_address, "--threads", "1")
+        r = study(path, tmp_path, "--scheduler", cluster.scheduler_address, "--threads", "1", beds=scene_dirs[1])
     assert r.returncode == 1
     assert "FAILED" in r.stderr and bad in r.stderr and f"{bad}.log" in r.stderr
     table = read_table(tmp_path / "studies/dask.csv")
