@@ -13,14 +13,40 @@ import time
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
-from analysis.config import ROOT
+from analysis.config import ROOT, ConfigError
 
 _print_lock = threading.Lock()
+
+# A case's fields, named as in the seed and the configs, and the scripts/disk.py options that set them.
+PLAIN = {"soil": "--soil", "preset": "--preset", "seed": "--seed", "slip": "--slip", "speed_kmh": "--speed",
+         "holes": "--holes", "lead_in": "--lead-in", "width": "--width", "depth": "--depth", "mode": "--mode"}
+PREFIXED = {"disk": "--tool", "sleeve": "--tool", "soil": "--set"}
 
 
 def say(msg: str):
     with _print_lock:
         print(msg, file=sys.stderr, flush=True)
+
+
+def scene_args(fields: dict) -> list[str]:
+    """The scripts/disk.py arguments that run a case with these fields (soil, slip, disk.D, soil.young, ...)."""
+    args = []
+    for key, value in fields.items():
+        part, dot, field = key.partition(".")
+        if not dot and key in PLAIN:
+            args += [PLAIN[key], str(value)]
+        elif dot and part in PREFIXED:
+            args += [PREFIXED[part], f"{key if part != 'soil' else field}={value}"]
+        else:
+            raise ConfigError(f"run field {key!r}: allowed {', '.join(PLAIN)}, disk.<field>, sleeve.<field>, "
+                              "soil.<field>")
+    return args
+
+
+def plan_case(fields: dict) -> dict:
+    """Check a case completely, as scripts/disk.py would (no YADE), and return its run parameters."""
+    from scripts.disk import plan_from_argv
+    return plan_from_argv(scene_args(fields))
 
 
 def finished(runs_dir: Path, case_id: str) -> bool:

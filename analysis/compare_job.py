@@ -14,7 +14,7 @@ from pathlib import Path
 import pandas as pd
 
 from analysis import compare, measure
-from analysis.batch import finished, run_all, say
+from analysis.batch import finished, plan_case, run_all, say, scene_args
 from analysis.config import ROOT, load_criteria
 from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
@@ -23,15 +23,15 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
         runs_dir: Path | None = None, bed_dir: Path | None = None, out: Path | None = None,
         no_run: bool = False) -> int:
     """Run what is missing (unless `no_run`: then only the finished runs are measured), measure, compare."""
-    from scripts.disk import plan                      # pure Python: checks every input, no YADE
     from scripts.bed import BED_DIR
     runs_dir = Path(runs_dir or ROOT / "results/runs")
     bed_dir = Path(bed_dir or BED_DIR)
     out = Path(out or ROOT / "results")
-    cases = [plan(soil, preset, seed=seed) for soil in soils for seed in seeds]
+    fields = [{"soil": soil, "preset": preset, "seed": seed} for soil in soils for seed in seeds]
+    cases = [plan_case(f) for f in fields]              # every input checked before any scene, no YADE
     criteria = load_criteria()
-    batch = [{"id": c["id"], "tag": f"[{c['soil']['name']} seed {c['seed']}]",
-              "args": ["--soil", c["soil"]["name"], "--preset", preset, "--seed", str(c["seed"])]} for c in cases]
+    batch = [{"id": c["id"], "tag": f"[{f['soil']} seed {f['seed']}]", "args": scene_args(f)}
+             for f, c in zip(fields, cases)]
     if no_run:
         failures = []
         for c in cases:

@@ -2,7 +2,7 @@
 each case one disk scene (analysis/batch.py), one tidy table per study in results/studies/NAME.csv.
 
 A study file:
-    [study]   name, description, metric (the column the plot puts on its y axes; default L0)
+    [study]   name, description
     [base]    fields every case shares (soil = "clay", preset = "quick", seed = 1, ...)
     [grid]    field = [values ...]: every combination            } one of the two, or both
     [[case]]  field = value ...: one case each                    } (grid cases, then the listed ones)
@@ -13,51 +13,33 @@ from __future__ import annotations
 
 import itertools
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from analysis.batch import finished, run_all, say
+from analysis.batch import finished, plan_case, run_all, say, scene_args
 from analysis.config import ROOT, ConfigError, load_criteria, read_toml
 from analysis.io import atomic_csv, atomic_write, stamp
 
-PLAIN = {"soil": "--soil", "preset": "--preset", "seed": "--seed", "slip": "--slip", "speed_kmh": "--speed",
-         "holes": "--holes", "lead_in": "--lead-in", "width": "--width", "depth": "--depth", "mode": "--mode"}
-PREFIXED = {"disk": "--tool", "sleeve": "--tool", "soil": "--set"}
 METRICS = ("L0", "L1", "L2", "h1", "C")
 
 
-def case_args(case: dict) -> list[str]:
-    """The scripts/disk.py arguments of one case."""
-    args = []
-    for key, value in case.items():
-        part, dot, field = key.partition(".")
-        if not dot and key in PLAIN:
-            args += [PLAIN[key], str(value)]
-        elif dot and part in PREFIXED:
-            args += [PREFIXED[part], f"{key if part != 'soil' else field}={value}"]
-        else:
-            raise ConfigError(f"study field {key!r}: allowed {', '.join(PLAIN)}, disk.<field>, sleeve.<field>, "
-                              "soil.<field>")
-    return args
+@dataclass(frozen=True)
+class Case:
+    fields: dict          # as the study file names them (soil, slip, disk.D, ...)
+    params: dict          # scripts/disk.py's checked run parameters
+
+    @property
+    def id(self) -> str:
+        return self.params["id"]
+
+    def label(self) -> str:
+        return ", ".join(f"{k}={v}" for k, v in self.fields.items())
 
 
-def plan_case(case: dict) -> dict:
-    """Check one case completely (scripts/disk.py's plan, no YADE) and return its run parameters."""
-    from scripts.disk import plan
-    from analysis.config import parse_overrides
-    def get(k, default=None):
-        return case.get(k, default)
-    tool = parse_overrides([f"{k}={v}" for k, v in case.items() if k.split(".")[0] in ("disk", "sleeve")])
-    soil = parse_overrides([f"{k.split('.', 1)[1]}={v}" for k, v in case.items() if k.startswith("soil.")])
-    case_args(case)                                       # unknown fields are an error here too
-    return plan(get("soil", "clay"), get("preset", "quick"), slip=get("slip"), speed_kmh=get("speed_kmh"),
-                holes=get("holes"), seed=get("seed", 1), mode=get("mode", "prescribed"), width=get("width"),
-                depth=get("depth"), overrides=soil, lead_in=get("lead_in"), tool=tool)
-
-
-def load_study(path) -> tuple[dict, list[dict]]:
+def load_study(path) -> tuple[dict, list[Case]]:
     """The study's header and its cases (each a dict of fields), every case checked before any runs."""
     data = read_toml(path)
     unknown = sorted(set(data) - {"study", "base", "grid", "case"})
@@ -75,26 +57,26 @@ def load_study(path) -> tuple[dict, list[dict]]:
     cases += [{**base, **c} for c in data.get("case", [])]
     if not cases:
         raise ConfigError(f"{path}: no cases (give [grid] lists or [[case]] tables)")
+    checked = []
     for i, c in enumerate(cases):
         try:
-            c["_params"] = plan_case(c)
+            checked.append(Case(c, plan_case(c)))
         except ConfigError as e:
             raise ConfigError(f"{path}: case {i + 1} ({', '.join(f'{k}={v}' for k, v in c.items())}): {e}") from None
-    ids = [c["_params"]["id"] for c in cases]
-    if len(set(ids)) < len(ids):
+    if len({c.id for c in checked}) < len(checked):
         raise ConfigError(f"{path}: two cases have the same parameters")
-    return head, cases
+    return head, checked
 
 
-def case_row(case: dict, runs_dir: Path, criteria: dict) -> dict:
+def case_row(case: Case, runs_dir: Path, criteria: dict) -> dict:
     """One tidy row: the case's fields, its cost and its holes' means and pass rate (stated reading)."""
     from analysis import measure
-    run = runs_dir / case["_params"]["id"]
+    run = runs_dir / case.id
     summary = json.loads((run / "summary.json").read_text())
     holes = measure.run(run)
     stated = criteria["stated"]
     passed = np.all([holes[m] > stated[m] for m in stated], axis=0)
-    row = {k: v for k, v in case.items() if not k.startswith("_")}
+    row = dict(case.fields)
     row.update({"run": summary["id"], "holes": len(holes)})
     row.update({m: float(holes[m].mean()) for m in METRICS})
     row.update({f"{m}_sd": float(holes[m].std(ddof=1)) if len(holes) > 1 else np.nan for m in METRICS})
@@ -104,23 +86,20 @@ def case_row(case: dict, runs_dir: Path, criteria: dict) -> dict:
     return row
 
 
-def write_table(name: str, head: dict, cases: list[dict], runs_dir: Path, out: Path, command: str):
-    """results/studies/NAME.csv from every finished case (rebuilt each time, written atomically: a crash
-    or a killed case never leaves a partial row) and its plot."""
+def write_table(name: str, head: dict, cases: list[Case], rows: dict, runs_dir: Path, out: Path, command: str):
+    """results/studies/NAME.csv from every finished case and its plot, written atomically, so a crash or a
+    killed case never leaves a partial row. `rows` keeps each case's row by id: a case is measured once."""
     criteria = load_criteria()
-    rows = [case_row(c, runs_dir, criteria) for c in cases if finished(runs_dir, c["_params"]["id"])]
+    for c in cases:
+        if c.id not in rows and finished(runs_dir, c.id):
+            rows[c.id] = case_row(c, runs_dir, criteria)
     if not rows:
         return None
-    table = pd.DataFrame(rows)
+    table = pd.DataFrame([rows[c.id] for c in cases if c.id in rows])
     note = stamp(command)
     atomic_csv(table.round(4), out / f"{name}.csv", note)
     plot(table, head, out / f"{name}.png", note)
     return table
-
-
-def varied(table: pd.DataFrame, cases: list[dict]) -> list[str]:
-    keys = [k for k in cases[0] if not k.startswith("_")]
-    return [k for k in keys if table[k].nunique() > 1] if len(table) else []
 
 
 def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
@@ -161,12 +140,11 @@ def run(path, workers: int = 1, threads: int = 2, scheduler: str | None = None, 
     out = Path(out or ROOT / "results/studies")
     name = head["name"]
     command = f"./holes study {path}"
-    batch = [{"id": c["_params"]["id"], "args": case_args({k: v for k, v in c.items() if not k.startswith("_")}),
-              "tag": f"[{name} {', '.join(f'{k}={v}' for k, v in c.items() if not k.startswith('_'))}]"}
-             for c in cases]
+    batch = [{"id": c.id, "args": scene_args(c.fields), "tag": f"[{name} {c.label()}]"} for c in cases]
+    rows = {}
     failures = run_all(batch, workers, threads, runs_dir, bed_dir, scheduler=scheduler, label=f"study {name}",
-                       on_done=lambda c, s: write_table(name, head, cases, runs_dir, out, command))
-    table = write_table(name, head, cases, runs_dir, out, command)
+                       on_done=lambda c, s: write_table(name, head, cases, rows, runs_dir, out, command))
+    table = write_table(name, head, cases, rows, runs_dir, out, command)
     if table is not None:
         say(f"study {name}: {len(table)}/{len(cases)} cases in {out / (name + '.csv')}")
     for f in failures:
@@ -179,13 +157,13 @@ def export_batch(path, table_path: Path) -> Path:
     field, one line per case ("-": the field is not set in that case). `yade-batch TABLE
     scripts/batch_case.py` runs the same cases: each job hands its line to scripts/disk.py."""
     _, cases = load_study(path)
-    keys = list(dict.fromkeys(k for c in cases for k in c if not k.startswith("_")))
+    keys = list(dict.fromkeys(k for c in cases for k in c.fields))
     lines = [" ".join(["description", *keys])]
     for c in cases:
-        cells = [str(c.get(k, "-")) for k in keys]
+        cells = [str(c.fields.get(k, "-")) for k in keys]
         if any(not cell or any(ch.isspace() for ch in cell) for cell in cells):
             raise ConfigError(f"{path}: a value with spaces cannot go into a yade-batch table: {cells}")
-        lines.append(" ".join([c["_params"]["id"], *cells]))
+        lines.append(" ".join([c.id, *cells]))
     atomic_write(table_path, "\n".join(lines) + "\n")
     return table_path
 

@@ -16,11 +16,12 @@ if Path(sys.executable) != PYTHON and PYTHON.exists() and not os.environ.get("HO
     os.execv(str(PYTHON), [str(PYTHON), str(ROOT / "scripts/batch_case.py")])
 sys.path.insert(0, str(ROOT))
 
-from analysis.study import case_args, case_from_table_line  # noqa: E402
+from analysis.batch import scene_args  # noqa: E402
+from analysis.study import case_from_table_line  # noqa: E402
 
 table, line = os.environ["YADE_BATCH"].rsplit(":", 1)
 description, case = case_from_table_line(table, int(line))
-args = [sys.executable, str(ROOT / "scripts/disk.py"), *case_args(case),
+args = [sys.executable, str(ROOT / "scripts/disk.py"), *scene_args(case),
         "--threads", os.environ.get("OMP_NUM_THREADS", "1")]
 print(f"batch_case: {description}: {' '.join(args[1:])}", flush=True)
 os.chdir(ROOT)

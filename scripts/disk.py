@@ -325,9 +325,10 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     return summary
 
 
-def main(argv=None) -> int:
+def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
+    """The command line of one run; `plan_from_argv` and `main` read it."""
     from scripts import bed
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], exit_on_error=exit_on_error)
     p.add_argument("--soil", default="clay")
     p.add_argument("--preset", default="quick")
     p.add_argument("--disk", default="configs/disk.toml")
@@ -348,11 +349,28 @@ def main(argv=None) -> int:
     p.add_argument("--tool", action="append", metavar="PART.KEY=VALUE",
                    help="override a disk or sleeve field, e.g. disk.D=45, sleeve.stiffness=16")
     p.add_argument("--rerun", action="store_true", help="run again even if this run's folder has a summary")
-    a = p.parse_args(argv)
+    return p
+
+
+def plan_args(a: argparse.Namespace) -> dict:
+    return plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
+                parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool))
+
+
+def plan_from_argv(argv: list[str]) -> dict:
+    """The checked parameters of the run `scripts/disk.py ARGV` would make, without running it (batches)."""
+    try:
+        a = arguments(exit_on_error=False).parse_args(argv)
+    except argparse.ArgumentError as e:
+        raise ConfigError(str(e)) from None
+    return plan_args(a)
+
+
+def main(argv=None) -> int:
+    a = arguments().parse_args(argv)
     runs = Path(a.out) if a.out else ROOT / "results/runs"
     try:
-        params = plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
-                      parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool))
+        params = plan_args(a)
         done = runs / params["id"] / "summary.json"
         if done.exists() and not a.rerun and not a.vtk:
             print(f"run {params['id']}: finished earlier, reused (--rerun to run it again)", file=sys.stderr)

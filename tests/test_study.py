@@ -11,7 +11,8 @@ import pytest
 
 from analysis.config import ROOT, ConfigError
 from analysis.io import read_table
-from analysis.study import case_args, case_from_table_line, export_batch, load_study
+from analysis.batch import scene_args
+from analysis.study import case_from_table_line, export_batch, load_study
 
 # one punch passage on the test strip, fast (fewer steps): studies here test the batch machinery
 TINY = {"soil": "clay", "preset": "test", "holes": 1, "lead_in": 0, "speed_kmh": 5.0}
@@ -40,7 +41,7 @@ def study(path, tmp_path, *args, wait=True, beds=None):
 def test_four_cases_on_two_workers_survive_a_kill_and_resume(tmp_path, scene_dirs):
     path = study_file(tmp_path, "four", {"speed_kmh": [4.0, 5.0], "sleeve.stiffness": [4.0, 8.0]})
     _, cases = load_study(path)
-    ids = [c["_params"]["id"] for c in cases]
+    ids = [c.id for c in cases]
     proc = study(path, tmp_path, "--workers", "2", "--threads", "1", wait=False, beds=scene_dirs[1])
     for line in proc.stderr:                               # kill the whole study when its first case finishes
         if " finished; " in line:
@@ -69,7 +70,7 @@ def test_a_failing_case_on_a_dask_cluster_is_reported_and_the_other_finishes(tmp
     distributed = pytest.importorskip("distributed")
     path = study_file(tmp_path, "dask", {"sleeve.stiffness": [2.0, 16.0]})
     _, cases = load_study(path)
-    bad = cases[0]["_params"]["id"]
+    bad = cases[0].id
     (tmp_path / "runs").mkdir()
     (tmp_path / "runs" / bad).write_text("a file where the run folder should go")   # the run cannot write
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
@@ -79,7 +80,7 @@ def test_a_failing_case_on_a_dask_cluster_is_reported_and_the_other_finishes(tmp
     assert r.returncode == 1
     assert "FAILED" in r.stderr and bad in r.stderr and f"{bad}.log" in r.stderr
     table = read_table(tmp_path / "studies/dask.csv")
-    assert list(table.run) == [cases[1]["_params"]["id"]]
+    assert list(table.run) == [cases[1].id]
 
 
 @pytest.mark.parametrize("grid, field", [({"slip": [0.0, 1.5]}, "slip"), ({"disk.Q": [1.0]}, "disk.Q"),
@@ -96,8 +97,7 @@ def test_the_yade_batch_table_holds_the_same_cases(tmp_path):
     table = export_batch(path, tmp_path / "t.table")
     for line, c in enumerate(cases, start=2):
         description, fields = case_from_table_line(table, line)
-        assert description == c["_params"]["id"]
-        expected = {k: v for k, v in c.items() if not k.startswith("_")}
-        assert case_args(fields) == case_args({k: str(v) for k, v in expected.items()})
+        assert description == c.id
+        assert scene_args(fields) == scene_args({k: str(v) for k, v in c.fields.items()})
     with pytest.raises(ConfigError, match="no cases"):
         load_study(study_file(tmp_path, "empty", {}))
