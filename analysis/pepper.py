@@ -54,20 +54,30 @@ def u(angle):
     return np.exp(1j * np.asarray(angle, float))
 
 
-def solve(link: Linkage, theta1):
-    """Every point and angle at crank angles θ1 (rad, array). Raises ValueError where the linkage cannot be
-    assembled (eq 13 has no real root) or the rod BD would leave the guide."""
+def crank_guide(link: Linkage, theta1):
+    """The crank-guide group at crank angles θ1: θ1 (array), B, C, θ2 and D (eqs 3, 4, 6, 10)."""
     th1 = np.atleast_1d(np.asarray(theta1, float))
     B = link.L1 * u(th1)                                     # eq (6)
     C = link.L3 * u(link.theta3)
+    th2 = np.angle(C - B)                                    # eqs (3)-(4): the rod passes through C
+    return th1, B, C, th2, B + link.L2 * u(th2)              # eq (10)
+
+
+def chain_span(link: Linkage, D):
+    """D - G - L5∠θ5 (eq 12's a + ib): what the links DE (L4) and FG (L6) must bridge."""
+    return D - link.L14 * u(link.alpha) - link.L5 * u(link.theta5)     # G from eq (7)
+
+
+def solve(link: Linkage, theta1):
+    """Every point and angle at crank angles θ1 (rad, array). Raises ValueError where the linkage cannot be
+    assembled (eq 13 has no real root) or the rod BD would leave the guide."""
+    th1, B, C, th2, D = crank_guide(link, theta1)
     BC = np.abs(C - B)
     if np.any(BC >= link.L2) or np.any(BC < 1e-9):
         raise ValueError(f"pepper linkage: rod BD (L2 = {link.L2:g} mm) does not reach past the guide C "
                          f"(|BC| up to {BC.max():.1f} mm)")
-    th2 = np.angle(C - B)                                    # eqs (3)-(4): the rod passes through C
-    D = B + link.L2 * u(th2)                                 # eq (10)
     G = link.L14 * u(link.alpha)                             # eq (7)
-    w = D - G - link.L5 * u(link.theta5)                     # eq (12): a + ib
+    w = chain_span(link, D)
     a, b = w.real, w.imag
     A2, B2, C2 = -2 * link.L4 * b, -2 * link.L4 * a, a * a + b * b + link.L4 ** 2 - link.L6 ** 2   # eq (13)
     disc = A2 * A2 + B2 * B2 - C2 * C2
@@ -97,10 +107,7 @@ def closure_residual(link: Linkage, s: dict) -> np.ndarray:
 def assembly_margin(link: Linkage, theta1) -> float:
     """min over θ1 of how far |D - G - L5∠θ5| stays inside [|L6 - L4|, L6 + L4] (mm; negative: eq 13 has no
     root somewhere). A few millimetres mean the chain D-E-F-G nearly folds flat (a toggle)."""
-    B = link.L1 * u(np.atleast_1d(np.asarray(theta1, float)))
-    C = link.L3 * u(link.theta3)
-    D = B + link.L2 * u(np.angle(C - B))
-    w = np.abs(D - link.L14 * u(link.alpha) - link.L5 * u(link.theta5))
+    w = np.abs(chain_span(link, crank_guide(link, theta1)[4]))
     return float(np.min(np.minimum(w - abs(link.L6 - link.L4), link.L6 + link.L4 - w)))
 
 

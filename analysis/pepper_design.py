@@ -145,10 +145,6 @@ def design(start: Linkage, goals: Goals, bounds: np.ndarray, starts: int = 6, se
     return Design(link, F, attainment(F, goals), margins(link, 3601), count["n"], len(z0s))
 
 
-def load_start(path="configs/pepper.toml") -> Linkage:
-    return load_linkage("initial", path)
-
-
 # --- results/pepper/: the design table and the Figs. 3-6 analogs -----------------------------------------------
 
 PAPER = {"initial": (21.6, 102.1, 265.0), "designed": (8.3, 97.54, 233.0)}    # §4.1: spread, depth, height (mm)
