@@ -74,7 +74,9 @@ def cmd_study(args) -> int:
     from analysis import study
     try:
         if args.export_batch:
-            path = study.export_batch(args.file, Path(args.export_batch))
+            if len(args.file) != 1:
+                raise ConfigError("--export-batch takes one study file")
+            path = study.export_batch(args.file[0], Path(args.export_batch))
             print(f"wrote {path}; run it with: yade-batch {path} scripts/batch_case.py")
             return 0
         workers = args.workers or max(1, (os.cpu_count() or 1) // args.threads)
@@ -163,7 +165,7 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="output folder (default results/theory/[disk name])")
     p.set_defaults(func=cmd_theory)
     p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
-    p.add_argument("file", help="study file, e.g. configs/studies/slip.toml")
+    p.add_argument("file", nargs="+", help="study file(s), e.g. configs/studies/slip.toml; several run as one batch")
     p.add_argument("--workers", type=int, help="cases at a time (default: cores / threads)")
     p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786); default: local")
     scene_batch_options(p, 1, "table folder (default results/studies)")

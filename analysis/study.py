@@ -1,4 +1,4 @@
-"""Parameter studies (`./holes study configs/studies/NAME.toml`): a grid or a list of cases over run fields,
+"""Parameter studies (`./holes study configs/studies/NAME.toml [MORE.toml ...]`): a grid or a list of cases over run fields,
 each case one disk scene (analysis/batch.py), one tidy table per study in results/studies/NAME.csv.
 
 A study file:
@@ -131,25 +131,40 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     plt.close(fig)
 
 
-def run(path, workers: int = 1, threads: int = 2, scheduler: str | None = None, runs_dir=None, bed_dir=None,
+def run(paths, workers: int = 1, threads: int = 2, scheduler: str | None = None, runs_dir=None, bed_dir=None,
         out=None) -> int:
+    """Run one or more studies as one batch (a case two studies share, such as the baseline, runs once), each
+    study's table rewritten as its cases finish."""
     from scripts.bed import BED_DIR
-    head, cases = load_study(path)
+    paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    studies = [(path, *load_study(path)) for path in paths]
+    names = [head["name"] for _, head, _ in studies]
+    if len(set(names)) < len(names):
+        raise ConfigError(f"two study files share a name: {', '.join(names)}")
     runs_dir = Path(runs_dir or ROOT / "results/runs")
     bed_dir = Path(bed_dir or BED_DIR)
     out = Path(out or ROOT / "results/studies")
-    name = head["name"]
-    command = f"./holes study {path}"
-    batch = [{"id": c.id, "args": scene_args(c.fields), "tag": f"[{name} {c.label()}]"} for c in cases]
-    rows = {}
-    failures = run_all(batch, workers, threads, runs_dir, bed_dir, scheduler=scheduler, label=f"study {name}",
-                       on_done=lambda c, s: write_table(name, head, cases, rows, runs_dir, out, command))
-    table = write_table(name, head, cases, rows, runs_dir, out, command)
-    if table is not None:
-        say(f"study {name}: {len(table)}/{len(cases)} cases in {out / (name + '.csv')}")
+    batch, members, rows = {}, {}, {name: {} for name in names}
+    for path, head, cases in studies:
+        for c in cases:
+            batch.setdefault(c.id, {"id": c.id, "args": scene_args(c.fields), "tag": f"[{head['name']} {c.label()}]"})
+            members.setdefault(c.id, []).append((path, head, cases))
+
+    def write(path, head, cases):
+        return write_table(head["name"], head, cases, rows[head["name"]], runs_dir, out, f"./holes study {path}")
+
+    label = "study " + "+".join(names)
+    failures = run_all(list(batch.values()), workers, threads, runs_dir, bed_dir, scheduler=scheduler, label=label,
+                       on_done=lambda c, s: [write(*m) for m in members[c["id"]]])
+    n_tables = 0
+    for path, head, cases in studies:
+        table = write(path, head, cases)
+        if table is not None:
+            n_tables += 1
+            say(f"study {head['name']}: {len(table)}/{len(cases)} cases in {out / (head['name'] + '.csv')}")
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
-    return 1 if failures or table is None else 0
+    return 1 if failures or n_tables < len(studies) else 0
 
 
 def export_batch(path, table_path: Path) -> Path:
