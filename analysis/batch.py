@@ -19,7 +19,8 @@ _print_lock = threading.Lock()
 
 # A case's fields, named as in the seed and the configs, and the scripts/disk.py options that set them.
 PLAIN = {"soil": "--soil", "preset": "--preset", "seed": "--seed", "slip": "--slip", "speed_kmh": "--speed",
-         "holes": "--holes", "lead_in": "--lead-in", "width": "--width", "depth": "--depth", "mode": "--mode"}
+         "holes": "--holes", "lead_in": "--lead-in", "width": "--width", "depth": "--depth", "mode": "--mode",
+         "resolution": "--resolution", "dt_safety": "--dt-safety"}
 PREFIXED = {"disk": "--tool", "sleeve": "--tool", "soil": "--set"}
 
 

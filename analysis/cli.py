@@ -110,13 +110,18 @@ def cmd_calibration_report(args) -> int:
 
 def cmd_bench(args) -> int:
     """`bench beds`: every bed's own measured settling cost (from its metadata) with the machine;
-    `bench runs`: every finished disk run's cost, and the wall time per 200 mm of travel (one hole)."""
+    `bench runs`: every finished disk run's cost, and the wall time per 200 mm of travel (one hole);
+    `bench speed-vs-error`: analysis/bench.py."""
     import json
     import os
     import platform
     import pandas as pd
     from analysis.io import atomic_csv, stamp
     machine = f"{platform.machine()} {os.cpu_count()} cores"
+    if args.what == "speed-vs-error":
+        from analysis import bench
+        return bench.run(args.workers or max(1, (os.cpu_count() or 1) // args.threads), args.threads,
+                         args.runs_dir, args.bed_dir, args.out)
     if args.what == "runs":
         rows = []
         for path in sorted((ROOT / "results/runs").glob("*/summary.json")):
@@ -205,8 +210,11 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("calibration-report", help="table and resistance plot of the accepted calibrations")
     p.set_defaults(func=cmd_calibration_report)
-    p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs")
-    p.add_argument("what", choices=["beds", "runs"])
+    p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs; "
+                       "`bench speed-vs-error` runs one clay hole at several resolutions (analysis/bench.py)")
+    p.add_argument("what", choices=["beds", "runs", "speed-vs-error"])
+    p.add_argument("--workers", type=int, help="speed-vs-error: cases at a time (default: cores / threads)")
+    scene_batch_options(p, 1, "speed-vs-error: table folder (default results/bench)")
     p.set_defaults(func=cmd_bench)
     args, rest = parser.parse_known_args(argv)
     if rest and args.command not in ("bed", "cone", "run"):

@@ -31,8 +31,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (ROOT, ConfigError, Field, PRESET_FIELDS, as_dict, load_disk, load_preset, load_sleeve,  # noqa: E402
-                             load_soil, parse_overrides, soil_with, tool_with)
+from analysis.config import (ROOT, ConfigError, Field, PRESET_FIELDS, as_dict, load_disk, load_preset,  # noqa: E402
+                             load_resolution, load_sleeve, load_soil, parse_overrides, soil_with, tool_with)
 from analysis.io import atomic_write  # noqa: E402
 from analysis.kinematics import TIP_SPHERE_RATIO, layout  # noqa: E402
 
@@ -40,6 +40,8 @@ SEGMENTS = 16               # facets round a punch or a sleeve
 SLEEVE_CLEARANCE = 1.0      # mm between the punch and the plate's bore
 RECORD_DT = 5e-4            # s of simulated time between records
 GUARD_EVERY = 200           # steps between stability checks
+GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100   # grains meet grains, walls (mask 1) and tools (bit 2);
+# tools meet grains only: bodies with the same mask sharing a bit with the collider's avoidSelfInteractionMask never meet
 GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
 RUN_FIELDS = {"slip": Field(0.0, 0.9, meaning="slip rate δ"),
               "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
@@ -55,16 +57,19 @@ def run_id(params: dict) -> str:
 def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml", slip: float | None = None,
          speed_kmh: float | None = None, holes: int | None = None, seed: int = 1, mode: str = "prescribed",
          width: float | None = None, depth: float | None = None, overrides: dict | None = None,
-         disk_inertia: float = 0.05, lead_in: int | None = None, tool: dict | None = None) -> dict:
+         disk_inertia: float = 0.05, lead_in: int | None = None, tool: dict | None = None,
+         resolution: str | None = None, dt_safety: float | None = None) -> dict:
     """Every parameter of the run, checked, before YADE starts."""
     if mode not in MODES:
         raise ConfigError(f"mode = {mode!r}: allowed {', '.join(MODES)}")
     disk = load_disk(disk_path)
     disk, sleeve = tool_with(disk, load_sleeve(disk_path, disk), tool or {})
     preset = load_preset(preset_name)
-    changes = {k: v for k, v in (("width", width), ("depth", depth), ("holes", holes), ("lead_in", lead_in))
-               if v is not None}
+    changes = {k: v for k, v in (("width", width), ("depth", depth), ("holes", holes), ("lead_in", lead_in),
+                                 ("resolution", resolution), ("dt_safety", dt_safety)) if v is not None}
     preset = dataclasses.replace(preset, **{k: PRESET_FIELDS[k].check(f"run.{k}", v) for k, v in changes.items()})
+    if resolution is not None:
+        load_resolution(resolution)
     soil = soil_with(load_soil(soil_name), overrides or {})
     slip = RUN_FIELDS["slip"].check("run.slip", disk.slip if slip is None else slip)
     speed_kmh = RUN_FIELDS["speed_kmh"].check("run.speed_kmh", disk.speed_kmh if speed_kmh is None else speed_kmh)
@@ -178,6 +183,11 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         plate_ids.append([O.bodies.append(utils.facet([world(p, phi) for p in tri], material=steel))
                           for tri in plate_tris])
     tool_ids = [i for ids in punch_ids + plate_ids for i in ids]
+    for i in tool_ids:                      # the tool's parts never touch each other or the walls, only grains,
+        O.bodies[i].mask = TOOL_MASK        # and YADE's local damping (which books energy even for bodies that
+        O.bodies[i].state.isDamped = False  # engines move) is not theirs
+    for i in grain_ids:
+        O.bodies[i].mask = GRAIN_MASK
 
     rot = RotationEngine(rotationAxis=(0, 1, 0), angularVelocity=omega, rotateAroundZero=True, zeroPoint=axis0)
     advance = TranslationEngine(translationAxis=(1, 0, 0), velocity=v)
@@ -195,7 +205,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     u_plate0 = (disk.R - sleeve.rest_from_tip) * mm
     travel = sleeve.travel * mm
     st = {"theta": 0.0, "omega": omega, "s": [0.0] * disk.N, "sdot": [0.0] * disk.N, "s_max": [0.0] * disk.N,
-          "tip_min": [math.inf] * disk.N, "next_record": 0.0, "rows": [], "work_disk": 0.0}
+          "tip_min": [math.inf] * disk.N, "next_record": 0.0, "rows": [], "work_tool": 0.0}
+    x_dir, y_dir = Vector3(1, 0, 0), Vector3(0, 1, 0)
     window = (lay.phi_out - math.radians(15), lay.phi_in + math.radians(15))
     tip_speed = v + omega * lay.tip_reach * mm
     free = params["mode"] == "free"
@@ -209,7 +220,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         dt, t = O.dt, O.time
         axis = axis0 + Vector3(v * t, 0, 0)
         rot.zeroPoint = axis
-        torque = 0.0
+        torque, slide_power = 0.0, 0.0
         for k in range(disk.N):
             phi = angle(k)
             active = window[0] < phi < window[1]
@@ -236,9 +247,13 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             st["s_max"][k] = max(st["s_max"][k], st["s"][k])
             slides[k].translationAxis = -ax
             slides[k].velocity = sdot
+            slide_power += sdot * f_plate.dot(ax)
         if free:
             st["omega"] += torque / params["disk_inertia"] * dt
             rot.angularVelocity = st["omega"]
+        # the tools' work on the soil: P = -(F_x v + M_y ω) over every tool body, + each plate's slide
+        st["work_tool"] += (slide_power - v * utils.sumForces(tool_ids, x_dir)
+                            - st["omega"] * utils.sumTorques(tool_ids, y_dir, axis)) * dt
         st["theta"] += st["omega"] * dt
         if t >= st["next_record"]:
             st["next_record"] += RECORD_DT
@@ -281,6 +296,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
 
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[
         PyRunner(command="hook()", iterPeriod=1, label="hook"), disk_engine, *plate_engines])
+    O.engines[1].avoidSelfInteractionMask = TOOL_SELF
     import builtins
     builtins.hook = hook                    # PyRunner evaluates its command in YADE's global namespace
     O.dt = preset["dt_safety"] * utils.PWaveTimeStep()
@@ -288,6 +304,20 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     log(f"run {params['id']}: {n_particles} grains, bed {meta['key']}, {n_steps} steps of {O.dt:.2e} s, "
         f"{len(lay.hole_x)} holes at x = {', '.join(f'{x:.0f}' for x in lay.hole_x)} mm")
     report = max(GUARD_EVERY, (n_steps // 50) // GUARD_EVERY * GUARD_EVERY)
+    O.trackEnergy = True
+    law = O.engines[2].lawDispatcher.functors[0]
+
+    def energy_now() -> dict:
+        """What the soil holds and has lost so far, and the tools' work on it (J). YADE's gravWork is the
+        potential energy gained; the law books friction and rolling/twisting slip, Newton's damping books
+        nonviscDamp."""
+        booked = dict(O.energy.items())
+        return {"work_tool": st["work_tool"], "kinetic": utils.kineticEnergy(), "elastic": law.elasticEnergy(),
+                "potential": booked.get("gravWork", 0.0),
+                **{k: v for k, v in booked.items() if k not in ("kinetic", "gravWork", "elastPotential")}}
+
+    O.run(1, True)                          # the bed's contacts exist from here on: the balance starts here
+    energy0 = energy_now()
     vmax = 0.0
     while O.iter < n_steps:
         O.run(min(GUARD_EVERY, n_steps - O.iter), True)
@@ -299,6 +329,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             log(f"run: {100 * done:3.0f} %  travel {v * O.time * 1000:5.0f}/{v * lay.t_end * 1000:.0f} mm  "
                 f"holes {formed}/{len(lay.hole_x)}  wall {el:.0f} s  ETA {el / max(done, 1e-9) * (1 - done):.0f} s")
     wall = time.time() - wall0
+    energy = energy_balance(energy0, energy_now())
+    log(f"run: energy {energy}")
     pos = np.array([tuple(O.bodies[i].state.pos) for i in grain_ids])
     rad = np.array([O.bodies[i].shape.radius for i in grain_ids])
     tmp = out / ".state.tmp.npz"
@@ -320,9 +352,23 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                "tip_min_depth_mm": [-1000 * z for z in st["tip_min"][:len(lay.hole_x)]],
                "sleeve_max_travel_mm": [1000 * s for s in st["s_max"][:len(lay.hole_x)]],
                "slip_out": 1 - v / (st["theta"] / O.time * disk.R * mm) if O.time > 0 else None,
-               "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids)}
+               "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids), "energy_J": energy}
     atomic_write(out / "summary.json", json.dumps(summary, indent=1))
     return summary
+
+
+def energy_balance(start: dict, end: dict) -> dict:
+    """The tools' work on the soil beside what it went into, between two `energy_now` readings (J):
+    work = Δkinetic + Δelastic + Δpotential + dissipated + residual. The residual is what no term books: the
+    elastic energy of cohesive bonds at the moment they break (YADE's CohFrictPhys law does not book it)
+    and the time integration's error."""
+    delta = {k: end[k] - start.get(k, 0.0) for k in end}
+    stored = {f"d_{k}": delta.pop(k) for k in ("kinetic", "elastic", "potential")}
+    work = delta.pop("work_tool")
+    dissipated = {k: v for k, v in delta.items()}
+    residual = work - sum(stored.values()) - sum(dissipated.values())
+    return {"work_tool": work, **stored, **{f"dissipated_{k}": v for k, v in dissipated.items()},
+            "residual": residual, "residual_fraction": residual / work if work else float("nan")}
 
 
 def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
@@ -338,6 +384,8 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--lead-in", type=int, help="holes formed first and not measured (default: the preset's)")
     p.add_argument("--width", type=float, help="mm, overrides the preset")
     p.add_argument("--depth", type=float, help="mm, overrides the preset")
+    p.add_argument("--resolution", help="particle size (configs/resolutions.toml), overrides the preset")
+    p.add_argument("--dt-safety", type=float, help="time step / critical time step, overrides the preset")
     p.add_argument("--mode", default="prescribed", help="prescribed | free")
     p.add_argument("--disk-inertia", type=float, default=0.05, help="kg·m², free mode")
     p.add_argument("--seed", type=int, default=1)
@@ -354,7 +402,7 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
 
 def plan_args(a: argparse.Namespace) -> dict:
     return plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
-                parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool))
+                parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool), a.resolution, a.dt_safety)
 
 
 def plan_from_argv(argv: list[str]) -> dict:

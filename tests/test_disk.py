@@ -73,3 +73,13 @@ def test_bad_run_input_names_the_field(tmp_path, args, field):
     r = run_scene(tmp_path, "--soil", "clay", *args, expect_ok=False)
     assert r.returncode == 2 and field in r.stderr and "allowed" in r.stderr
     assert not (tmp_path / "beds").exists()            # rejected before any scene was built
+
+
+def test_energy_balance_closes(two_holes):
+    """The tools' work on the soil = Δkinetic + Δelastic + Δpotential + booked dissipation + residual; the
+    residual (bond energy lost at breakage, integration error) stays within 3 % of the work."""
+    e = two_holes[0]["energy_J"]
+    assert e["work_tool"] > 1.0
+    dissipated = {k: v for k, v in e.items() if k.startswith("dissipated_")}
+    assert dissipated["dissipated_shearDissip"] > 0 and dissipated["dissipated_nonviscDamp"] > 0
+    assert abs(e["residual_fraction"]) < 0.03, e

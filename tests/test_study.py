@@ -101,3 +101,19 @@ def test_the_yade_batch_table_holds_the_same_cases(tmp_path):
         assert scene_args(fields) == scene_args({k: str(v) for k, v in c.fields.items()})
     with pytest.raises(ConfigError, match="no cases"):
         load_study(study_file(tmp_path, "empty", {}))
+
+
+def test_several_studies_run_as_one_batch_with_a_shared_case_once(tmp_path, monkeypatch):
+    from analysis import study as study_mod
+    a = study_file(tmp_path, "a", {"slip": [0.0, 0.1]})
+    (tmp_path / "b").mkdir()
+    b = study_file(tmp_path / "b", "b", {"speed_kmh": [5.0, 4.0]})      # its 5 km/h case is a's slip 0 case
+    batches = []
+    monkeypatch.setattr(study_mod, "run_all", lambda batch, *a, **k: batches.append(batch) or [])
+    monkeypatch.setattr(study_mod, "write_table", lambda *a, **k: None)
+    study_mod.run([a, b], 2, 1, runs_dir=tmp_path / "runs", bed_dir=tmp_path / "beds", out=tmp_path / "out")
+    ids = [c["id"] for c in batches[0]]
+    assert len(ids) == 3 and len(set(ids)) == 3
+    (tmp_path / "c").mkdir()
+    with pytest.raises(ConfigError, match="share a name"):
+        study_mod.run([a, study_file(tmp_path / "c", "a", {"slip": [0.2]})], 1, 1, runs_dir=tmp_path / "runs")

@@ -1,0 +1,436 @@
+"""Scene: the rolling six-punch disk with spring-loaded press sleeves in a soil strip (seed 001 §1.2, §2, Fig. 2).
+
+    .venv/bin/python scripts/disk.py --soil clay --preset quick          # or: ./holes run --soil clay
+
+Parts:
+- bed: a settled strip from scripts/bed.py, long enough for `holes` consecutive holes (analysis/kinematics.py),
+  cohesion on for existing and new contacts;
+- tool: N punches, each a facet cylinder (diameter D, from the mounting plate R0 to R - h) and a facet cone of
+  height h closed by an inscribed steel sphere (the blunt tip the cone scene needed too: many facets meeting in
+  one vertex give a grain there too many stiff contacts); on each punch a press sleeve, an annular facet plate;
+- kinematics: the axis advances at v and turns at ω = v / (R(1 - δ)) (eq 1), prescribed; or `--mode free`,
+  where ω is integrated from the soil's torque on the punches (I_disk dω/dt = M_y) and slip comes out;
+  each sleeve's axial travel s is integrated from the soil's force on it, its return spring
+  (preload + stiffness·s), viscous damping, gravity and the centrifugal pull, between its stop and `travel`;
+- recorder: punch and sleeve forces, sleeve travel and the disk's position, every RECORD_DT of simulated time.
+
+A stability guard stops the run, naming the cause, on NaN, a grain faster than GUARD_SPEED × the tip speed,
+a grain outside the box, or kinetic energy above that of the whole bed moving at the tip speed.
+Writes results/runs/<id>/: config.json, timeseries.csv, state.npz (final positions, radii), summary.json
+(written last: a run without it did not finish), optional VTK.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import hashlib
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, "/work/dev")
+from analysis.config import (ROOT, ConfigError, Field, PRESET_FIELDS, as_dict, load_disk, load_preset, load_sleeve,  # noqa: E402
+                             load_soil, parse_overrides, soil_with, tool_with)
+from analysis.io import atomic_write  # noqa: E402
+from analysis.kinematics import TIP_SPHERE_RATIO, layout  # noqa: E402
+
+SEGMENTS = 16               # facets round a punch or a sleeve
+SLEEVE_CLEARANCE = 1.0      # mm between the punch and the plate's bore
+RECORD_DT = 5e-4            # s of simulated time between records
+GUARD_EVERY = 200           # steps between stability checks
+GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100
+GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
+RUN_FIELDS = {"slip": Field(0.0, 0.9, meaning="slip rate δ"),
+              "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
+              "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)")}
+MODES = ("prescribed", "free")
+
+
+def run_id(params: dict) -> str:
+    digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
+    return f"{params['soil']['name']}-{params['preset']['name']}-{params['mode']}-{digest}"
+
+
+def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml", slip: float | None = None,
+         speed_kmh: float | None = None, holes: int | None = None, seed: int = 1, mode: str = "prescribed",
+         width: float | None = None, depth: float | None = None, overrides: dict | None = None,
+         disk_inertia: float = 0.05, lead_in: int | None = None, tool: dict | None = None) -> dict:
+    """Every parameter of the run, checked, before YADE starts."""
+    if mode not in MODES:
+        raise ConfigError(f"mode = {mode!r}: allowed {', '.join(MODES)}")
+    disk = load_disk(disk_path)
+    disk, sleeve = tool_with(disk, load_sleeve(disk_path, disk), tool or {})
+    preset = load_preset(preset_name)
+    changes = {k: v for k, v in (("width", width), ("depth", depth), ("holes", holes), ("lead_in", lead_in))
+               if v is not None}
+    preset = dataclasses.replace(preset, **{k: PRESET_FIELDS[k].check(f"run.{k}", v) for k, v in changes.items()})
+    soil = soil_with(load_soil(soil_name), overrides or {})
+    slip = RUN_FIELDS["slip"].check("run.slip", disk.slip if slip is None else slip)
+    speed_kmh = RUN_FIELDS["speed_kmh"].check("run.speed_kmh", disk.speed_kmh if speed_kmh is None else speed_kmh)
+    RUN_FIELDS["disk_inertia"].check("run.disk_inertia", disk_inertia)
+    if preset.depth <= disk.penetration + 20:
+        raise ConfigError(f"preset.depth = {preset.depth:g} is out of range: allowed > penetration + 20 = "
+                          f"{disk.penetration + 20:g} mm")
+    if preset.width <= sleeve.outer_diameter:
+        raise ConfigError(f"preset.width = {preset.width:g} is out of range: allowed > sleeve outer diameter "
+                          f"{sleeve.outer_diameter:g} mm")
+    lay = layout(disk, speed_kmh, slip, preset.holes, preset.lead_in, preset.run_out,
+                 tip_sphere=TIP_SPHERE_RATIO * disk.d)
+    params = {"soil": as_dict(soil), "disk": as_dict(disk), "sleeve": as_dict(sleeve), "preset": as_dict(preset),
+              "slip": slip, "speed_kmh": speed_kmh, "seed": seed, "mode": mode, "disk_inertia": disk_inertia,
+              "layout": {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(lay).items()},
+              "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}
+    params["id"] = run_id({k: v for k, v in params.items() if k != "layout"})
+    return params
+
+
+def punch_mesh(disk, sleeve, a: float):
+    """Punch and plate triangles in the punch frame (u along the axis from the disk centre, v in the disk
+    plane, w across it), in mm; the tip sphere (centre u, radius) closes the cone."""
+    R, d, h = disk.R, disk.d, disk.h
+    half = math.atan2(d, h)
+    u_sphere = R - a / math.sin(half)
+    u_cut = R - (a / math.sin(half)) * math.cos(half) ** 2
+    r_cut = d * (R - u_cut) / h
+    ring = [(math.cos(2 * math.pi * i / SEGMENTS), math.sin(2 * math.pi * i / SEGMENTS)) for i in range(SEGMENTS)]
+
+    def circle(u, r):
+        return [(u, r * c, r * s) for c, s in ring]
+
+    def band(lo, hi):
+        tris = []
+        for i in range(SEGMENTS):
+            j = (i + 1) % SEGMENTS
+            tris += [(lo[i], lo[j], hi[j]), (lo[i], hi[j], hi[i])]
+        return tris
+
+    top, edge, cut = circle(disk.R0, d), circle(R - h, d), circle(u_cut, r_cut)
+    punch = band(top, edge) + band(edge, cut) + [(cut[i], cut[(i + 1) % SEGMENTS], (u_cut, 0.0, 0.0))
+                                                  for i in range(SEGMENTS)]
+    u_plate = R - sleeve.rest_from_tip
+    plate = band(circle(u_plate, d + SLEEVE_CLEARANCE), circle(u_plate, sleeve.outer_diameter / 2))
+    return punch, plate, (u_sphere, a)
+
+
+def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: Path | None = None,
+             vtk: bool = False, quiet: bool = False) -> dict:
+    from scripts import bed as bedmod
+    from analysis.config import disk_from_dict, Sleeve
+    from analysis.kinematics import Layout
+    soil = load_soil(params["soil"]["name"])
+    soil = dataclasses.replace(soil, **{k: params["soil"][k] for k in params["soil"] if k != "name"})
+    disk = disk_from_dict({k: v for k, v in params["disk"].items() if k != "name"})
+    sleeve = Sleeve(**params["sleeve"])
+    lay = Layout(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in params["layout"].items()})
+    preset = params["preset"]
+    log = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    bed_path = bedmod.build(soil.name, preset["resolution"], params["bed_size_mm"], params["seed"], threads,
+                            quiet=quiet, bed_dir=bed_dir or bedmod.BED_DIR,
+                            overrides={k: params["soil"][k] for k in soil.settling_key()})
+    meta = bedmod.load_meta(bed_path)
+    out = (out_root or ROOT / "results/runs") / params["id"]
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "summary.json").unlink(missing_ok=True)
+    atomic_write(out / "config.json", json.dumps(params, indent=1))
+
+    from scripts.yadeboot import boot
+    boot(threads)
+    import numpy as np
+    from yade import O, PyRunner, RotationEngine, TranslationEngine, Vector3, utils
+    from scripts import soil as part
+    from analysis.metrology import surface_level
+
+    wall0 = time.time()
+    O.reset()
+    data = np.load(bed_path)
+    L, W, D = meta["size_m"]
+    mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=True))
+    steel = O.materials.append(part.steel_material(soil))
+    grain_ids = O.bodies.append([utils.sphere(tuple(p), r, material=mat) for p, r in zip(data["pos"], data["radius"])])
+    n_particles = len(grain_ids)
+    bed_mass = sum(O.bodies[i].state.mass for i in grain_ids)
+    z_surface = surface_level(data["pos"], data["radius"], 4 * meta["radius"])
+    O.bodies.append(part.container(L, W, z_surface + 0.2, steel))     # tall: a flung grain falls back in
+
+    mm = 1e-3
+    v, omega = lay.speed * mm, lay.omega
+    y_c = W / 2
+    axis0 = Vector3(lay.x_axis0 * mm, y_c, z_surface + lay.H0 * mm)
+    a_tip = TIP_SPHERE_RATIO * disk.d
+    punch_tris, plate_tris, (u_sphere, r_sphere) = punch_mesh(disk, sleeve, a_tip)
+
+    def frame(phi):
+        """Unit vectors of the punch axis (outward) and the in-plane normal for the angle φ from straight down."""
+        return Vector3(math.sin(phi), 0, -math.cos(phi)), Vector3(math.cos(phi), 0, math.sin(phi))
+
+    def world(p, phi):
+        ax, b = frame(phi)
+        return axis0 + (ax * p[0] + b * p[1] + Vector3(0, 1, 0) * p[2]) * mm
+
+    punch_ids, plate_ids = [], []
+    for k in range(disk.N):
+        phi = lay.phi0 + k * lay.pitch
+        ids = [O.bodies.append(utils.facet([world(p, phi) for p in tri], material=steel)) for tri in punch_tris]
+        ids.append(O.bodies.append(utils.sphere(world((u_sphere, 0, 0), phi), r_sphere * mm, fixed=True,
+                                                material=steel)))
+        punch_ids.append(ids)
+        plate_ids.append([O.bodies.append(utils.facet([world(p, phi) for p in tri], material=steel))
+                          for tri in plate_tris])
+    tool_ids = [i for ids in punch_ids + plate_ids for i in ids]
+    for i in tool_ids:                      # the tool's parts never touch each other or the walls, only grains,
+        O.bodies[i].mask = TOOL_MASK        # and YADE's local damping (which books energy even for bodies that
+        O.bodies[i].state.isDamped = False  # engines move) is not theirs
+    for i in grain_ids:
+        O.bodies[i].mask = GRAIN_MASK
+
+    rot = RotationEngine(rotationAxis=(0, 1, 0), angularVelocity=omega, rotateAroundZero=True, zeroPoint=axis0)
+    advance = TranslationEngine(translationAxis=(1, 0, 0), velocity=v)
+    slides = [TranslationEngine(translationAxis=(0, 0, 1), velocity=0.0) for _ in range(disk.N)]
+    disk_engine = advance + rot
+    disk_engine.ids = [i for ids in punch_ids for i in ids]
+    plate_engines = []
+    for k in range(disk.N):
+        e = advance + rot + slides[k]
+        e.ids = plate_ids[k]
+        plate_engines.append(e)
+
+    k_s, m_s = sleeve.stiffness * 1e3, sleeve.mass                      # N/m, kg
+    c_s = 2 * sleeve.damping_ratio * math.sqrt(max(k_s, 1e-9) * m_s)
+    u_plate0 = (disk.R - sleeve.rest_from_tip) * mm
+    travel = sleeve.travel * mm
+    st = {"theta": 0.0, "omega": omega, "s": [0.0] * disk.N, "sdot": [0.0] * disk.N, "s_max": [0.0] * disk.N,
+          "tip_min": [math.inf] * disk.N, "next_record": 0.0, "rows": [], "work_tool": 0.0}
+    x_dir, y_dir = Vector3(1, 0, 0), Vector3(0, 1, 0)
+    window = (lay.phi_out - math.radians(15), lay.phi_in + math.radians(15))
+    tip_speed = v + omega * lay.tip_reach * mm
+    free = params["mode"] == "free"
+
+    def angle(k):
+        """Punch k's angle from straight down now (φ falls as the disk turns)."""
+        return lay.phi0 + k * lay.pitch - st["theta"]
+
+    def hook():
+        """Per step: the axis position, the disk's rotation (free mode), each sleeve's axial motion."""
+        dt, t = O.dt, O.time
+        axis = axis0 + Vector3(v * t, 0, 0)
+        rot.zeroPoint = axis
+        torque, slide_power = 0.0, 0.0
+        for k in range(disk.N):
+            phi = angle(k)
+            active = window[0] < phi < window[1]
+            if not active and st["s"][k] == 0.0:
+                continue
+            ax, _ = frame(phi)
+            f_plate = Vector3(0, 0, 0)
+            for i in plate_ids[k]:
+                f_plate += O.forces.f(i)
+            if free and active:
+                for i in punch_ids[k] + plate_ids[k]:
+                    torque += (O.bodies[i].state.pos - axis).cross(O.forces.f(i))[1]
+            s, sdot = st["s"][k], st["sdot"][k]
+            rho = u_plate0 - s
+            force = (-f_plate.dot(ax) - (sleeve.preload + k_s * s) - c_s * sdot
+                     + m_s * 9.81 * math.cos(phi) + m_s * st["omega"] ** 2 * rho)
+            sdot += force / m_s * dt
+            if s + sdot * dt < 0.0:
+                sdot = -s / dt
+            elif s + sdot * dt > travel:
+                sdot = (travel - s) / dt
+            st["s"][k] = min(max(s + sdot * dt, 0.0), travel)
+            st["sdot"][k] = sdot if 0.0 < st["s"][k] < travel else 0.0
+            st["s_max"][k] = max(st["s_max"][k], st["s"][k])
+            slides[k].translationAxis = -ax
+            slides[k].velocity = sdot
+            slide_power += sdot * f_plate.dot(ax)
+        if free:
+            st["omega"] += torque / params["disk_inertia"] * dt
+            rot.angularVelocity = st["omega"]
+        # the tools' work on the soil: P = -(F_x v + M_y ω) over every tool body, + each plate's slide
+        st["work_tool"] += (slide_power - v * utils.sumForces(tool_ids, x_dir)
+                            - st["omega"] * utils.sumTorques(tool_ids, y_dir, axis)) * dt
+        st["theta"] += st["omega"] * dt
+        if t >= st["next_record"]:
+            st["next_record"] += RECORD_DT
+            record(t, axis)
+
+    def record(t, axis):
+        for k in range(disk.N):
+            phi = angle(k)
+            if not window[0] < phi < window[1]:
+                continue
+            fp = sum((O.forces.f(i) for i in punch_ids[k]), Vector3(0, 0, 0))
+            fs = sum((O.forces.f(i) for i in plate_ids[k]), Vector3(0, 0, 0))
+            tip = O.bodies[punch_ids[k][-1]].state.pos
+            tip_z = tip[2] - r_sphere * mm - z_surface
+            st["tip_min"][k] = min(st["tip_min"][k], tip_z)
+            ax, _ = frame(phi)
+            st["rows"].append((t, axis[0], math.degrees(st["theta"]), st["omega"], k, math.degrees(phi), tip[0], tip_z,
+                               fp[0], fp[2], -fs.dot(ax), st["s"][k]))
+
+    def guard():
+        vmax, worst = 0.0, None
+        for i in grain_ids:
+            b = O.bodies[i]
+            p, vel = b.state.pos, b.state.vel.norm()
+            if not (math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2]) and math.isfinite(vel)):
+                raise RuntimeError(f"run: grain {i} has a non-finite position or velocity at t = {O.time:.4f} s")
+            if not (-0.02 < p[0] < L + 0.02 and -0.02 < p[1] < W + 0.02 and -0.02 < p[2] < z_surface + 0.3):
+                raise RuntimeError(f"run: grain {i} left the box at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) m, "
+                                   f"t = {O.time:.4f} s")
+            if vel > vmax:
+                vmax, worst = vel, i
+        if vmax > GUARD_SPEED * tip_speed:
+            raise RuntimeError(f"run: grain {worst} moves at {vmax:.2f} m/s, > {GUARD_SPEED:g} × the tip speed "
+                               f"{tip_speed:.2f} m/s, at t = {O.time:.4f} s (unstable)")
+        ke = utils.kineticEnergy()
+        if not math.isfinite(ke) or ke > 0.5 * bed_mass * tip_speed ** 2:
+            raise RuntimeError(f"run: kinetic energy {ke:.3g} J exceeds the whole bed moving at the tip speed "
+                               f"({0.5 * bed_mass * tip_speed ** 2:.3g} J) at t = {O.time:.4f} s (energy blow-up)")
+        return vmax
+
+    O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[
+        PyRunner(command="hook()", iterPeriod=1, label="hook"), disk_engine, *plate_engines])
+    O.engines[1].avoidSelfInteractionMask = TOOL_SELF
+    import builtins
+    builtins.hook = hook                    # PyRunner evaluates its command in YADE's global namespace
+    O.dt = preset["dt_safety"] * utils.PWaveTimeStep()
+    n_steps = int(lay.t_end / O.dt) + 1
+    log(f"run {params['id']}: {n_particles} grains, bed {meta['key']}, {n_steps} steps of {O.dt:.2e} s, "
+        f"{len(lay.hole_x)} holes at x = {', '.join(f'{x:.0f}' for x in lay.hole_x)} mm")
+    report = max(GUARD_EVERY, (n_steps // 50) // GUARD_EVERY * GUARD_EVERY)
+    O.trackEnergy = True
+    law = O.engines[2].lawDispatcher.functors[0]
+
+    def energy_now() -> dict:
+        """What the soil holds and has lost so far, and the tools' work on it (J). YADE's gravWork is the
+        potential energy gained; the law books friction and rolling/twisting slip, Newton's damping books
+        nonviscDamp."""
+        booked = dict(O.energy.items())
+        return {"work_tool": st["work_tool"], "kinetic": utils.kineticEnergy(), "elastic": law.elasticEnergy(),
+                "potential": booked.get("gravWork", 0.0),
+                **{k: v for k, v in booked.items() if k not in ("kinetic", "gravWork", "elastPotential")}}
+
+    O.run(1, True)                          # the bed's contacts exist from here on: the balance starts here
+    energy0 = energy_now()
+    vmax = 0.0
+    while O.iter < n_steps:
+        O.run(min(GUARD_EVERY, n_steps - O.iter), True)
+        vmax = max(vmax, guard())
+        if O.iter % report < GUARD_EVERY or O.iter >= n_steps:
+            done = O.iter / n_steps
+            formed = sum(1 for k in range(len(lay.hole_x)) if angle(k) < lay.phi_out)
+            el = time.time() - wall0
+            log(f"run: {100 * done:3.0f} %  travel {v * O.time * 1000:5.0f}/{v * lay.t_end * 1000:.0f} mm  "
+                f"holes {formed}/{len(lay.hole_x)}  wall {el:.0f} s  ETA {el / max(done, 1e-9) * (1 - done):.0f} s")
+            log("E " + " ".join(f"{k}={v:.3g}" for k, v in energy_balance(energy0, energy_now()).items()))
+    wall = time.time() - wall0
+    energy = energy_balance(energy0, energy_now())
+    log(f"run: energy {energy}")
+    pos = np.array([tuple(O.bodies[i].state.pos) for i in grain_ids])
+    rad = np.array([O.bodies[i].shape.radius for i in grain_ids])
+    tmp = out / ".state.tmp.npz"
+    np.savez_compressed(tmp, pos=pos, radius=rad, z_surface=z_surface, initial_pos=data["pos"])
+    tmp.replace(out / "state.npz")
+    header = "t_s,axis_x_m,theta_deg,omega_rad_s,punch,phi_deg,tip_x_m,tip_z_m,punch_fx_n,punch_fz_n,sleeve_force_n,sleeve_travel_m\n"
+    atomic_write(out / "timeseries.csv", header + "".join(",".join(f"{x:.6g}" for x in r) + "\n" for r in st["rows"]))
+    if vtk:
+        from yade import export
+        exp = export.VTKExporter(str(out / "vtk" / "scene"))
+        (out / "vtk").mkdir(exist_ok=True)
+        exp.exportSpheres(ids=list(grain_ids), what=dict(radius="b.shape.radius", disp="b.state.displ()"))
+        exp.exportFacets(ids=[i for ids in punch_ids + plate_ids for i in ids if O.bodies[i].shape.__class__.__name__ == "Facet"])
+    summary = {"id": params["id"], "soil": soil.name, "preset": preset["name"], "mode": params["mode"],
+               "bed": meta["key"], "particles": n_particles, "steps": int(O.iter), "dt": O.dt, "wall_s": wall,
+               "threads": threads, "particle_steps_per_s": n_particles * O.iter / wall,
+               "travel_mm": v * O.time * 1000, "sim_time_s": O.time, "z_surface_m": z_surface,
+               "holes": len(lay.hole_x), "lead_in": lay.lead_in, "hole_x_mm": list(lay.hole_x),
+               "tip_min_depth_mm": [-1000 * z for z in st["tip_min"][:len(lay.hole_x)]],
+               "sleeve_max_travel_mm": [1000 * s for s in st["s_max"][:len(lay.hole_x)]],
+               "slip_out": 1 - v / (st["theta"] / O.time * disk.R * mm) if O.time > 0 else None,
+               "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids), "energy_J": energy}
+    atomic_write(out / "summary.json", json.dumps(summary, indent=1))
+    return summary
+
+
+def energy_balance(start: dict, end: dict) -> dict:
+    """The tools' work on the soil beside what it went into, between two `energy_now` readings (J):
+    work = Δkinetic + Δelastic + Δpotential + dissipated + residual. The residual is what no term books: the
+    elastic energy of cohesive bonds at the moment they break (YADE's CohFrictPhys law does not book it)
+    and the time integration's error."""
+    delta = {k: end[k] - start.get(k, 0.0) for k in end}
+    stored = {f"d_{k}": delta.pop(k) for k in ("kinetic", "elastic", "potential")}
+    work = delta.pop("work_tool")
+    dissipated = {k: v for k, v in delta.items()}
+    residual = work - sum(stored.values()) - sum(dissipated.values())
+    return {"work_tool": work, **stored, **{f"dissipated_{k}": v for k, v in dissipated.items()},
+            "residual": residual, "residual_fraction": residual / work if work else float("nan")}
+
+
+def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
+    """The command line of one run; `plan_from_argv` and `main` read it."""
+    from scripts import bed
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], exit_on_error=exit_on_error)
+    p.add_argument("--soil", default="clay")
+    p.add_argument("--preset", default="quick")
+    p.add_argument("--disk", default="configs/disk.toml")
+    p.add_argument("--slip", type=float)
+    p.add_argument("--speed", type=float, help="forward speed, km/h (default: the disk config's)")
+    p.add_argument("--holes", type=int, help="holes to measure (default: the preset's)")
+    p.add_argument("--lead-in", type=int, help="holes formed first and not measured (default: the preset's)")
+    p.add_argument("--width", type=float, help="mm, overrides the preset")
+    p.add_argument("--depth", type=float, help="mm, overrides the preset")
+    p.add_argument("--mode", default="prescribed", help="prescribed | free")
+    p.add_argument("--disk-inertia", type=float, default=0.05, help="kg·m², free mode")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--vtk", action="store_true", help="also write VTK files for ParaView")
+    p.add_argument("--out", help="runs folder (default results/runs)")
+    p.add_argument("--bed-dir", default=str(bed.BED_DIR))
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
+    p.add_argument("--tool", action="append", metavar="PART.KEY=VALUE",
+                   help="override a disk or sleeve field, e.g. disk.D=45, sleeve.stiffness=16")
+    p.add_argument("--rerun", action="store_true", help="run again even if this run's folder has a summary")
+    return p
+
+
+def plan_args(a: argparse.Namespace) -> dict:
+    return plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
+                parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool))
+
+
+def plan_from_argv(argv: list[str]) -> dict:
+    """The checked parameters of the run `scripts/disk.py ARGV` would make, without running it (batches)."""
+    try:
+        a = arguments(exit_on_error=False).parse_args(argv)
+    except argparse.ArgumentError as e:
+        raise ConfigError(str(e)) from None
+    return plan_args(a)
+
+
+def main(argv=None) -> int:
+    a = arguments().parse_args(argv)
+    runs = Path(a.out) if a.out else ROOT / "results/runs"
+    try:
+        params = plan_args(a)
+        done = runs / params["id"] / "summary.json"
+        if done.exists() and not a.rerun and not a.vtk:
+            print(f"run {params['id']}: finished earlier, reused (--rerun to run it again)", file=sys.stderr)
+            print(json.dumps(json.loads(done.read_text())))
+            return 0
+        summary = main_run(params, a.threads, runs, Path(a.bed_dir), a.vtk)
+    except ConfigError as e:
+        print(f"run: {e}", file=sys.stderr)
+        return 2
+    except RuntimeError as e:
+        print(f"run stopped: {e}", file=sys.stderr)
+        return 3
+    from analysis import run_report
+    run_report.run(runs / summary["id"])
+    print(json.dumps(summary))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,37 @@
+"""Speed against error (analysis/bench.py) on a made-up study table: the reference, the errors, the front."""
+import pandas as pd
+import pytest
+
+from analysis.bench import errors, pareto
+from analysis.compare import field_table
+
+
+def table():
+    rows = [("a", "coarse", None, None, 10.0, 100.0, 120.0, 60.0, 30.0, 10.0),
+            ("b", "quick", None, None, 40.0, 110.0, 115.0, 58.0, 33.0, 12.0),
+            ("c", "default", None, None, 90.0, 100.0, 110.0, 55.0, 35.0, 12.0),
+            ("d", None, 0.8, None, 25.0, 100.0, 116.0, 57.0, 33.0, 12.0),
+            ("e", None, None, 1.0e7, 60.0, 100.0, 130.0, 65.0, 25.0, 15.0)]
+    t = pd.DataFrame(rows, columns=["run", "resolution", "dt_safety", "soil.young", "wall_s", "particles", "L0",
+                                    "L1", "L2", "h1"])
+    t["soil"], t["preset"], t["steps"] = "clay", "quick", 1000
+    return t
+
+
+def test_errors_are_against_the_finest_base_case_and_the_field_mean():
+    t = errors(table(), field_table())
+    assert set(t.reference) == {"c"}                   # 4 mm grains at the preset's step and modulus
+    assert t.loc[t.run == "c", "err_finest_pct"].item() == 0.0
+    b = t[t.run == "b"].iloc[0]
+    assert b.L0_vs_finest == pytest.approx(5.0) and b.L2_vs_finest == pytest.approx(-2.0)
+    assert b.err_finest_pct == pytest.approx(100 * (5 / 110 + 3 / 55 + 2 / 35 + 0 / 12) / 4)
+    field = field_table()
+    clay = field[(field.soil == "clay") & (field.run.astype(str) == "mean")].iloc[0]
+    assert b.L1_vs_field == pytest.approx(58.0 - clay.L1)
+    assert t.loc[t.run == "d", "dt_safety"].item() == 0.8 and t.loc[t.run == "a", "dt_safety"].item() == 0.5
+    assert t.loc[t.run == "e", "young_pa"].item() == 1.0e7 and t.loc[t.run == "a", "radius_mm"].item() == 8.0
+
+
+def test_pareto_front_keeps_only_unbeaten_cases():
+    t = pd.DataFrame({"wall_s": [10, 20, 30, 40], "err": [9.0, 3.0, 5.0, 1.0]})
+    assert list(pareto(t, "err")) == [True, True, False, True]
