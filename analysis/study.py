@@ -102,6 +102,19 @@ def write_table(name: str, head: dict, cases: list[Case], rows: dict, runs_dir: 
     return table
 
 
+def theory_lines(x: str, values) -> dict[str, dict]:
+    """The rigid-punch theory beside a slip study, at each slip: seed 001 Table 1 (eqs 1-5 as the authors
+    evaluated them: L0, L1; C = 2πR(1-δ)/N, eq 6) and the punch's exact swept envelope (L0, L1, L2, C).
+    Other studies get none."""
+    if x != "slip":
+        return {}
+    from analysis.compare import theory_values
+    slips = sorted(set(float(v) for v in values))
+    th = [theory_values(slip=s) for s in slips]
+    return {label: {"x": slips, **{m: [t[key].get(m, np.nan) for t in th] for m in METRICS}}
+            for label, key in (("theory: Table 1", "table1"), ("theory: swept envelope", "envelope"))}
+
+
 def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     """Each hole metric and the pass rate against the study's first varied field (a line per other value)."""
     import matplotlib
@@ -112,8 +125,12 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
             and not k.endswith("_sd") and table[k].nunique() > 1]
     x = keys[0] if keys else "run"
     group = keys[1] if len(keys) > 1 else None
+    theory = theory_lines(x, table[x]) if x in table else {}
     fig, axes = plt.subplots(2, 3, figsize=(13, 7))
     for ax, m in zip(axes.flat, (*METRICS, "pass_rate")):
+        for (label, line), style in zip(theory.items(), ("k--", "k:")):
+            if m in line and np.isfinite(line[m]).any():
+                ax.plot(line["x"], line[m], style, marker=".", label=label)
         for label, part in (table.groupby(group) if group else [(None, table)]):
             part = part.sort_values(x)
             err = part.get(f"{m}_sd")                  # SD over a case's holes; none with one hole
@@ -122,7 +139,7 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
         ax.set_xlabel(x)
         ax.set_ylabel(m + (" (stated criteria)" if m == "pass_rate" else ", mm"))
         ax.grid(alpha=0.3)
-    if group:
+    if group or theory:
         axes.flat[0].legend(fontsize=7)
     fig.suptitle(f"study {head['name']}: {head.get('description', '')}\n{note}", fontsize=8)
     fig.tight_layout()

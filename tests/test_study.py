@@ -117,3 +117,18 @@ def test_several_studies_run_as_one_batch_with_a_shared_case_once(tmp_path, monk
     (tmp_path / "c").mkdir()
     with pytest.raises(ConfigError, match="share a name"):
         study_mod.run([a, study_file(tmp_path / "c", "a", {"slip": [0.2]})], 1, 1, runs_dir=tmp_path / "runs")
+
+
+def test_a_slip_study_plots_the_theory_beside_the_holes(tmp_path):
+    from analysis.study import plot, theory_lines
+    lines = theory_lines("slip", [0.25, 0.0, 0.1, 0.0])
+    table1 = lines["theory: Table 1"]
+    assert table1["x"] == [0.0, 0.1, 0.25]
+    assert table1["L0"] == pytest.approx([96.5, 90.1, 78.8])            # seed 001 Table 1
+    assert all(a > b for a, b in zip(lines["theory: swept envelope"]["C"], lines["theory: swept envelope"]["C"][1:]))
+    assert theory_lines("speed_kmh", [1.0, 5.0]) == {}
+    import pandas as pd
+    table = pd.DataFrame({"slip": [0.0, 0.1], "L0": [110.0, 100.0], "L1": [70.0, 69.0], "L2": [40.0, 41.0],
+                          "h1": [10.0, 11.0], "C": [200.0, 180.0], "pass_rate": [1.0, 0.5]})
+    plot(table, {"name": "slip"}, tmp_path / "slip.png", "test")
+    assert (tmp_path / "slip.png").stat().st_size > 10_000
