@@ -12,10 +12,10 @@ import pandas as pd
 
 from analysis.config import load_seedling
 from analysis.io import atomic_csv
-from analysis.metrology import measure_state
+from analysis.metrology import DEPTHS, measure_state
 
 COLUMNS = ["run", "soil", "seed", "hole", "x", "C", "h1", "L0", "L1", "L2", "bottom", "grain_radius", "probe",
-           "cell"]
+           "cell", *(f"l_{H}" for H in DEPTHS)]
 
 
 def load_run(folder: Path):
@@ -29,8 +29,8 @@ def load_run(folder: Path):
 
 
 def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
-    """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2 and
-    the bottom depth; the probe is the mean grain radius. Also returns what the pictures need: the hole
+    """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2,
+    the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...); the probe is the mean grain radius. Also returns what the pictures need: the hole
     measures, the undisturbed level, the probed surface and the loaded run."""
     cfg, summary, state = loaded = load_run(folder)
     seedling = load_seedling(seedling_path)
@@ -42,7 +42,8 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     x = np.array([h.x for h in holes])
     rows = [{"run": summary["id"], "soil": cfg["soil"]["name"], "seed": cfg["seed"], "hole": k + 1, "x": h.x,
              "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2,
-             "bottom": h.bottom, "grain_radius": float(rad.mean()), "probe": float(rad.mean()), "cell": cell}
+             "bottom": h.bottom, "grain_radius": float(rad.mean()), "probe": float(rad.mean()), "cell": cell,
+             **{f"l_{H}": v for H, v in zip(DEPTHS, h.l_depth)}}
             for k, h in enumerate(holes)]
     return pd.DataFrame(rows, columns=COLUMNS), holes, z_surface, surf, loaded
 

@@ -60,6 +60,7 @@ def deficit_centres(pos, initial_pos, radius, y_centre: float, half_band: float,
 # the soil). The probe bridges the gaps between grains, so S is a surface at the grains' scale whatever
 # their size; its resolution is the grid step across and about the probe radius in height.
 
+DEPTHS = tuple(range(5, 65, 5))      # mm below the undisturbed surface: Table 1's l_5 ... l_60
 SECTIONS = (0.2, 0.4, 0.6, 0.8)     # §4.2: "measured at 4 places, equally spaced": lines at 1/5 ... 4/5
 
 
@@ -130,6 +131,7 @@ class HoleMeasure:
     L2: float           # effective depth: opening level down to where the inner diameter falls to √2·a2
     bottom: float       # deepest probed point of the hole below the undisturbed surface
     z_open: float
+    l_depth: tuple = ()  # length along the travel at each of DEPTHS below the undisturbed surface (Table 1's l_H)
 
 
 def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sleeve_outer: float,
@@ -166,7 +168,19 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
             L2 = z_open - (prev_z - frac * dz)
             break
         prev_z, prev_d = z, d
-    return HoleMeasure(float(X[opening].mean()), h1, L0, L1, L2, z_surface - float(S[seed]), z_open)
+    return HoleMeasure(float(X[opening].mean()), h1, L0, L1, L2, z_surface - float(S[seed]), z_open,
+                       tuple(length_at_depth(below, seed, z_surface - H, step, probe) for H in DEPTHS))
+
+
+def length_at_depth(below, seed, z: float, step: float, probe: float) -> float:
+    """The hole's length along the travel at level z (Table 1's l_H): the caliper chord along x through the
+    middle of the region the probe reaches below z (grown from the hole's deepest cell), plus the probe's
+    diameter; 0 below the hole's bottom."""
+    region = grow(below < z, seed)
+    if not region.any():
+        return 0.0
+    iy = np.nonzero(region)[1]
+    return chord(region[:, int(round((iy.min() + iy.max()) / 2))], step) + 2 * probe
 
 
 def measure_state(pos_mm, radius_mm, initial_pos_mm, initial_radius_mm, width: float, hole_x, D: float,

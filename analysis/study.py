@@ -80,6 +80,7 @@ def case_row(case: Case, runs_dir: Path, criteria: dict) -> dict:
     row.update({"run": summary["id"], "holes": len(holes)})
     row.update({m: float(holes[m].mean()) for m in METRICS})
     row.update({f"{m}_sd": float(holes[m].std(ddof=1)) if len(holes) > 1 else np.nan for m in METRICS})
+    row.update({c: float(holes[c].mean()) for c in holes.columns if c.startswith("l_")})    # l_H, Table 1
     row.update({"pass_rate": float(passed.mean()), "passed": int(passed.sum()),
                 "wall_s": summary["wall_s"], "particles": summary["particles"], "steps": summary["steps"],
                 "threads": summary["threads"], "slip_out": summary.get("slip_out")})
@@ -122,7 +123,7 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     import matplotlib.pyplot as plt
     keys = [k for k in table.columns if k not in ("run", "holes", "passed", "wall_s", "particles", "steps",
                                                   "threads", "slip_out", "pass_rate", *METRICS)
-            and not k.endswith("_sd") and table[k].nunique() > 1]
+            and not k.endswith("_sd") and not k.startswith("l_") and table[k].nunique() > 1]
     x = keys[0] if keys else "run"
     group = keys[1] if len(keys) > 1 else None
     theory = theory_lines(x, table[x]) if x in table else {}
@@ -144,6 +145,37 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     fig.suptitle(f"study {head['name']}: {head.get('description', '')}\n{note}", fontsize=8)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    if theory and any(c.startswith("l_") for c in table.columns):
+        plot_length_at_depth(table, path.with_name(path.stem + "_depth.png"), note)
+
+
+def plot_length_at_depth(table: pd.DataFrame, path: Path, note: str):
+    """The hole's length along the travel against depth below the undisturbed surface, at each slip: the DEM
+    holes (mean over a case's holes) beside seed 001 Table 1's l_H."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from analysis.io import read_table
+    t1 = read_table(ROOT / "configs/field/table1.csv")
+    cols = [c for c in table.columns if c.startswith("l_")]
+    depths = [int(c[2:]) for c in cols]
+    fig, ax = plt.subplots(figsize=(7, 5))
+    for i, r in enumerate(table.sort_values("slip").itertuples(index=False)):
+        colour = f"C{i}"
+        ax.plot([getattr(r, c) for c in cols], depths, "-o", color=colour, label=f"DEM, slip {r.slip:g}")
+        ref = t1[np.isclose(t1.slip, r.slip)]
+        if len(ref):
+            ax.plot([ref.iloc[0][c] for c in cols if c in ref], [d for d, c in zip(depths, cols) if c in ref], "--",
+                    color=colour, label=f"Table 1, slip {r.slip:g}")
+    ax.invert_yaxis()
+    ax.set_xlabel("hole length along the travel l_H, mm")
+    ax.set_ylabel("depth H below the undisturbed surface, mm")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title(f"length at depth: DEM beside seed 001 Table 1\n{note}", fontsize=8)
+    fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

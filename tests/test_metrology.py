@@ -7,7 +7,7 @@ import pytest
 
 from analysis import compare
 from analysis.config import ConfigError, Seedling, load_criteria, threshold
-from analysis.metrology import measure_state
+from analysis.metrology import DEPTHS, measure_state
 from synthetic import carve, four_section_length, four_section_width, lattice_bed
 
 L0, W, STRAIGHT, TAPER, H1 = 92.0, 50.0, 45.0, 25.0, 13.0
@@ -33,6 +33,12 @@ def test_metrology_recovers_a_carved_hole_within_one_grain_radius(r, turn, jitte
     for name, value in expected.items():
         assert getattr(hole, name) == pytest.approx(value, abs=r), name
     assert hole.x == pytest.approx(150.0, abs=r)
+    # Table 1's l_H in the straight part, below the pressed ring: one chord (not a mean of four sections), so
+    # the wall grains that stand up to r into the hole at either end shorten it by up to 2r
+    for H, length in zip(DEPTHS, hole.l_depth):
+        if H1 + r < H <= H1 + STRAIGHT:
+            assert length == pytest.approx(L0, abs=2 * r), H
+    assert 0 < hole.l_depth[-1] < L0                        # 60 mm: in the taper, shorter
 
 
 def test_spacing_between_two_carved_holes():

@@ -130,5 +130,8 @@ def test_a_slip_study_plots_the_theory_beside_the_holes(tmp_path):
     import pandas as pd
     table = pd.DataFrame({"slip": [0.0, 0.1], "L0": [110.0, 100.0], "L1": [70.0, 69.0], "L2": [40.0, 41.0],
                           "h1": [10.0, 11.0], "C": [200.0, 180.0], "pass_rate": [1.0, 0.5]})
+    for H in (5, 30, 60):
+        table[f"l_{H}"] = [100.0 - H / 2, 95.0 - H / 2]
     plot(table, {"name": "slip"}, tmp_path / "slip.png", "test")
     assert (tmp_path / "slip.png").stat().st_size > 10_000
+    assert (tmp_path / "slip_depth.png").stat().st_size > 10_000      # l_H beside Table 1
