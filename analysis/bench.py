@@ -9,15 +9,13 @@ relative size |m - ref| / ref (the `err_*_pct` columns), which the Pareto plot s
 """
 from __future__ import annotations
 
-import os
-import platform
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from analysis.config import ROOT, load_preset, load_resolution, load_soil
-from analysis.io import atomic_csv, read_table, stamp
+from analysis.io import atomic_csv, machine, read_table, stamp
 
 METRICS = ("L0", "L1", "L2", "h1")
 STUDY = ROOT / "configs/studies/speed_vs_error.toml"
@@ -28,14 +26,16 @@ def with_numerics(table: pd.DataFrame) -> pd.DataFrame:
     and soil a case did not override)."""
     t = table.copy()
     preset = t["preset"].map(load_preset)
-    res = t["resolution"].where(t["resolution"].notna(), preset.map(lambda p: p.resolution)) \
-        if "resolution" in t else preset.map(lambda p: p.resolution)
-    t["resolution"] = res
-    t["radius_mm"] = res.map(lambda r: 1000 * load_resolution(r).radius)
-    dt = t["dt_safety"] if "dt_safety" in t else pd.Series(np.nan, index=t.index)
-    t["dt_safety"] = dt.where(dt.notna(), preset.map(lambda p: p.dt_safety))
-    young = t["soil.young"] if "soil.young" in t else pd.Series(np.nan, index=t.index)
-    t["young_pa"] = young.where(young.notna(), t["soil"].map(lambda s: load_soil(s).young))
+
+    def value(field: str, default: pd.Series) -> pd.Series:
+        """The case's own value of a field where it set one, else the default."""
+        given = t[field] if field in t else pd.Series(np.nan, index=t.index, dtype=object)
+        return given.where(given.notna(), default)
+
+    t["resolution"] = value("resolution", preset.map(lambda p: p.resolution))
+    t["radius_mm"] = t["resolution"].map(lambda r: 1000 * load_resolution(r).radius)
+    t["dt_safety"] = value("dt_safety", preset.map(lambda p: p.dt_safety)).astype(float)
+    t["young_pa"] = value("soil.young", t["soil"].map(lambda s: load_soil(s).young)).astype(float)
     return t
 
 
@@ -54,7 +54,7 @@ def errors(table: pd.DataFrame, field: pd.DataFrame) -> pd.DataFrame:
     t["err_field_pct"] = 100 * np.mean([np.abs(t[f"{m}_vs_field"]) / t["soil"].map(means[m]).abs()
                                         for m in METRICS], axis=0)
     t["particle_steps_per_s"] = t.particles * t.steps / t.wall_s
-    t["machine"] = f"{platform.machine()} {os.cpu_count()} cores"
+    t["machine"] = machine()
     return t
 
 

@@ -70,7 +70,6 @@ def cmd_compare(args) -> int:
 
 
 def cmd_study(args) -> int:
-    import os
     from analysis import study
     try:
         if args.export_batch:
@@ -79,8 +78,7 @@ def cmd_study(args) -> int:
             path = study.export_batch(args.file[0], Path(args.export_batch))
             print(f"wrote {path}; run it with: yade-batch {path} scripts/batch_case.py")
             return 0
-        workers = args.workers or max(1, (os.cpu_count() or 1) // args.threads)
-        return study.run(args.file, workers, args.threads, args.scheduler, args.runs_dir, args.bed_dir, args.out)
+        return study.run(args.file, workers(args), args.threads, args.scheduler, args.runs_dir, args.bed_dir, args.out)
     except ConfigError as e:
         print(f"study: {e}", file=sys.stderr)
         return 2
@@ -113,14 +111,11 @@ def cmd_bench(args) -> int:
     `bench runs`: every finished disk run's cost, and the wall time per 200 mm of travel (one hole);
     `bench speed-vs-error`: analysis/bench.py."""
     import json
-    import os
-    import platform
     import pandas as pd
-    from analysis.io import atomic_csv, stamp
-    machine = f"{platform.machine()} {os.cpu_count()} cores"
+    from analysis.io import atomic_csv, machine, stamp
     if args.what == "speed-vs-error":
         from analysis import bench
-        return bench.run(args.workers or max(1, (os.cpu_count() or 1) // args.threads), args.threads,
+        return bench.run(workers(args), args.threads,
                          args.runs_dir, args.bed_dir, args.out)
     if args.what == "runs":
         rows = []
@@ -130,7 +125,7 @@ def cmd_bench(args) -> int:
                          "particles": m["particles"], "steps": m["steps"], "dt_s": m["dt"],
                          "travel_mm": round(m["travel_mm"]), "wall_s": round(m["wall_s"]), "threads": m["threads"],
                          "particle_steps_per_s": round(m["particle_steps_per_s"]),
-                         "wall_s_per_hole_200mm": round(m["wall_s"] * 200 / m["travel_mm"]), "machine": machine})
+                         "wall_s_per_hole_200mm": round(m["wall_s"] * 200 / m["travel_mm"]), "machine": machine()})
         if not rows:
             print("bench: no finished runs in results/runs; make one with ./holes run", file=sys.stderr)
             return 1
@@ -144,7 +139,7 @@ def cmd_bench(args) -> int:
                      "size_mm": "x".join(f"{1000 * s:.0f}" for s in m["size_m"]), "particles": m["particles"],
                      "steps": m["steps"], "wall_s": round(m["wall_s"], 1), "threads": m["threads"],
                      "particle_steps_per_s": round(m["particle_steps"] / m["wall_s"]),
-                     "porosity": round(m["porosity"], 4), "machine": machine})
+                     "porosity": round(m["porosity"], 4), "machine": machine()})
     if not rows:
         print("bench: no beds in results/beds; build one with ./holes bed", file=sys.stderr)
         return 1
@@ -152,6 +147,12 @@ def cmd_bench(args) -> int:
     atomic_csv(pd.DataFrame(rows), out, stamp("./holes bench beds"))
     print(pd.DataFrame(rows).to_string(index=False))
     return 0
+
+
+def workers(args) -> int:
+    """Cases at a time: --workers, or as many as the cores hold at --threads each."""
+    import os
+    return args.workers or max(1, (os.cpu_count() or 1) // args.threads)
 
 
 def scene_batch_options(p, threads: int, out_help: str):

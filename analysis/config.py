@@ -249,6 +249,15 @@ def load_preset(name: str, path="configs/presets.toml") -> Preset:
     return Preset(name, **v)
 
 
+def preset_with(preset: Preset, changes: dict) -> Preset:
+    """The preset with some fields replaced (`--width`, `--resolution`, ...), checked as the presets file is."""
+    import dataclasses
+    checked = {k: PRESET_FIELDS[k].check(f"run.{k}", v) for k, v in changes.items()}
+    if "resolution" in checked:
+        load_resolution(checked["resolution"])
+    return dataclasses.replace(preset, **checked)
+
+
 def check_sources(path, sources: dict, schema: dict):
     unknown = sorted(set(sources) - set(schema))
     if unknown:

@@ -23,6 +23,11 @@ def stamp(command: str) -> str:
             f"({os.cpu_count()} cores), {datetime.date.today().isoformat()}")
 
 
+def machine() -> str:
+    """The machine a benchmark ran on, as its CSVs name it."""
+    return f"{platform.machine()} {os.cpu_count()} cores"
+
+
 def atomic_write(path: Path, text: str):
     """Write text to path via a temporary file and a rename, so a crash never leaves half a file."""
     path = Path(path)

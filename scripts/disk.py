@@ -31,8 +31,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (ROOT, ConfigError, Field, PRESET_FIELDS, as_dict, load_disk, load_preset,  # noqa: E402
-                             load_resolution, load_sleeve, load_soil, parse_overrides, soil_with, tool_with)
+from analysis.config import (ROOT, ConfigError, Field, as_dict, load_disk, load_preset, load_sleeve,  # noqa: E402
+                             load_soil, parse_overrides, preset_with, soil_with, tool_with)
 from analysis.io import atomic_write  # noqa: E402
 from analysis.kinematics import TIP_SPHERE_RATIO, layout  # noqa: E402
 
@@ -65,11 +65,9 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
     disk = load_disk(disk_path)
     disk, sleeve = tool_with(disk, load_sleeve(disk_path, disk), tool or {})
     preset = load_preset(preset_name)
-    changes = {k: v for k, v in (("width", width), ("depth", depth), ("holes", holes), ("lead_in", lead_in),
-                                 ("resolution", resolution), ("dt_safety", dt_safety)) if v is not None}
-    preset = dataclasses.replace(preset, **{k: PRESET_FIELDS[k].check(f"run.{k}", v) for k, v in changes.items()})
-    if resolution is not None:
-        load_resolution(resolution)
+    preset = preset_with(preset, {k: v for k, v in (("width", width), ("depth", depth), ("holes", holes),
+                                                     ("lead_in", lead_in), ("resolution", resolution),
+                                                     ("dt_safety", dt_safety)) if v is not None})
     soil = soil_with(load_soil(soil_name), overrides or {})
     slip = RUN_FIELDS["slip"].check("run.slip", disk.slip if slip is None else slip)
     speed_kmh = RUN_FIELDS["speed_kmh"].check("run.speed_kmh", disk.speed_kmh if speed_kmh is None else speed_kmh)
@@ -364,10 +362,9 @@ def energy_balance(start: dict, end: dict) -> dict:
     and the time integration's error."""
     delta = {k: end[k] - start.get(k, 0.0) for k in end}
     stored = {f"d_{k}": delta.pop(k) for k in ("kinetic", "elastic", "potential")}
-    work = delta.pop("work_tool")
-    dissipated = {k: v for k, v in delta.items()}
-    residual = work - sum(stored.values()) - sum(dissipated.values())
-    return {"work_tool": work, **stored, **{f"dissipated_{k}": v for k, v in dissipated.items()},
+    work = delta.pop("work_tool")                  # what is left in `delta` is the booked dissipation
+    residual = work - sum(stored.values()) - sum(delta.values())
+    return {"work_tool": work, **stored, **{f"dissipated_{k}": v for k, v in delta.items()},
             "residual": residual, "residual_fraction": residual / work if work else float("nan")}
 
 
