@@ -183,7 +183,8 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_pepper)
     for name, script, text in (("bed", "bed.py", "settle and level a soil bed (cached by soil, resolution, size, seed)"),
                                ("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)"),
-                               ("run", "disk.py", "the rolling punch disk with press sleeves in a soil strip")):
+                               ("run", "disk.py", "the rolling punch disk with press sleeves in a soil strip"),
+                               ("duckbeak", "duckbeak.py", "the duck-beak planter (seed 000) through a ridge bed")):
         p = sub.add_parser(name, help=text, add_help=False)
         p.set_defaults(func=lambda a, script=script: run_scene(script, a.rest))
     p = sub.add_parser("calibrate", help="fit a soil's cohesion to the Table 2 cone index (within 5 %)")
@@ -218,7 +219,7 @@ def main(argv=None) -> int:
     scene_batch_options(p, 1, "speed-vs-error: table folder (default results/bench)")
     p.set_defaults(func=cmd_bench)
     args, rest = parser.parse_known_args(argv)
-    if rest and args.command not in ("bed", "cone", "run"):
+    if rest and args.command not in ("bed", "cone", "run", "duckbeak"):
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
     args.rest = rest
     try:

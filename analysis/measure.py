@@ -28,6 +28,14 @@ def load_run(folder: Path):
     return cfg, summary, state
 
 
+def hole_tool(cfg: dict) -> tuple[float, float]:
+    """The tool's diameter and the outer diameter of the ring where h1 is read: a disk run's punch D and its
+    sleeve; the duck-beak's D (scripts/duckbeak.py) and a ring of 2 D, as wide round the hole as a sleeve."""
+    if cfg.get("scene") == "duckbeak":
+        return cfg["planter"]["D"], 2 * cfg["planter"]["D"]
+    return cfg["disk"]["D"], cfg["sleeve"]["outer_diameter"]
+
+
 def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
     """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2,
     the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...); the probe is the mean grain radius. Also returns what the pictures need: the hole
@@ -37,8 +45,7 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     pos, rad, pos0 = state["pos"] * 1000, state["radius"] * 1000, state["initial_pos"] * 1000
     measured_x = summary["hole_x_mm"][summary.get("lead_in", 0):]        # lead-in holes are not measured
     holes, z_surface, surf = measure_state(pos, rad, pos0, rad, cfg["bed_size_mm"][1], measured_x,
-                                           cfg["disk"]["D"], cfg["sleeve"]["outer_diameter"],
-                                           2 ** 0.5 * seedling.a2, cell=cell)
+                                           *hole_tool(cfg), 2 ** 0.5 * seedling.a2, cell=cell)
     x = np.array([h.x for h in holes])
     rows = [{"run": summary["id"], "soil": cfg["soil"]["name"], "seed": cfg["seed"], "hole": k + 1, "x": h.x,
              "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2,
@@ -66,8 +73,8 @@ def plot(folder: Path, loaded, holes, z_surface: float, surf):
     cfg, summary, state = loaded
     xs, ys, S = surf
     pos, rad = state["pos"] * 1000, state["radius"] * 1000
-    W = cfg["bed_size_mm"][1]
-    fig, ax = plt.subplots(figsize=(12, 3.6))
+    L, W = cfg["bed_size_mm"][:2]
+    fig, ax = plt.subplots(figsize=(min(12.0, 2.5 + 3.0 * L / W), 3.6))
     im = ax.imshow((S - z_surface).T, origin="lower", extent=(xs[0], xs[-1], ys[0], ys[-1]), cmap="terrain",
                    vmin=-70, vmax=25, aspect="equal")
     fig.colorbar(im, ax=ax, label="probed surface − undisturbed level, mm")
@@ -97,7 +104,7 @@ def plot(folder: Path, loaded, holes, z_surface: float, surf):
             ax.axhline(h.z_open - z_surface, color="r", lw=0.8, ls="--", label="opening level (−h1)")
             ax.axhline(h.z_open - z_surface - h.L2, color="m", lw=0.8, ls=":", label="L2")
             mid = h.x if along == 0 else W / 2
-            ax.set(xlim=(mid - 90, mid + 90), ylim=(-cfg["preset"]["depth"], 40), aspect="equal",
+            ax.set(xlim=(mid - 90, mid + 90), ylim=(-cfg["bed_size_mm"][2], 40), aspect="equal",
                    xlabel=("x" if along == 0 else "y") + ", mm", ylabel="z − undisturbed level, mm",
                    title=f"hole {k + 1}, " + ("along the travel" if along == 0 else "across"))
             if k == 0 and row == 0:

@@ -172,7 +172,8 @@ def trajectory_metrics(link: Linkage, speed_mm_s: float, omega: float, n: int = 
     - height: highest minus lowest point (goal 230);
     - depth: lowest point II up to point III where the entry and exit paths cross (the ridge surface; goal
       100); if they do not cross, III is where they come closest;
-    - spread: the largest horizontal distance between the entry and exit paths below III (goal 0)."""
+    - spread: the largest horizontal distance between the entry and exit paths below III (goal 0);
+    - ground: III's level, the ridge surface, in the mechanism's frame."""
     _, _, Z = trajectory(link, speed_mm_s, omega, n)
     Z = Z[:-1]                                   # one period, the last point repeats the first
     X, Y = Z.real, Z.imag
@@ -194,7 +195,7 @@ def trajectory_metrics(link: Linkage, speed_mm_s: float, omega: float, n: int = 
     below = levels <= y3
     spread = float(np.max(np.abs(gap[below]))) if below.any() else 0.0
     return {"height": float(Y.max() - Y.min()), "depth": float(y3 - Y[i_min]), "spread": spread,
-            "crossed": bool(len(cross))}
+            "crossed": bool(len(cross)), "ground": float(y3)}
 
 
 def check_dead_point(link: Linkage, s: dict, tol: float = 1.0):
@@ -205,3 +206,39 @@ def check_dead_point(link: Linkage, s: dict, tol: float = 1.0):
         raise ValueError(f"pepper linkage passes within {margin:.2f} mm of a dead point "
                          f"(L_BE reaches L_BD ± L_DE); allowed margin >= {tol:g} mm")
     return margin
+
+
+def pose(link: Linkage, speed_mm_s: float, omega: float, t, y_ground: float):
+    """P on the ground's frame at times t (s) from θ1 = 0 (eq 16: x along -v from a point fixed in the ground,
+    y up from the ridge surface), and θ4, the angle of the body DM that carries the planter (mm, rad)."""
+    t = np.asarray(t, float)
+    s = solve(link, omega * t)
+    Z = s["P"] - speed_mm_s * t
+    return Z.real, Z.imag - y_ground, s["theta4"]
+
+
+@dataclass(frozen=True)
+class PlanterPass:
+    """The planter's pass through the soil: from t_in, its tip going down `clearance` above the ridge
+    surface (point III's level), through its lowest point at t_bottom, to t_out, as high again going up."""
+    t_in: float
+    t_bottom: float
+    t_out: float
+    y_ground: float      # the ridge surface in the mechanism's frame (mm)
+    depth: float         # the tip's lowest point below the surface (mm)
+    x_bottom: float      # P's x there, ground frame (mm)
+    theta4_bottom: float
+
+
+def planter_pass(link: Linkage, speed_mm_s: float, omega: float, clearance: float, n: int = 7201) -> PlanterPass:
+    """Find the pass on two crank turns sampled at n points per turn (it may straddle θ1 = 0)."""
+    y_ground = trajectory_metrics(link, speed_mm_s, omega)["ground"]
+    t = np.linspace(0.0, 4 * np.pi, 2 * n - 1) / omega
+    x, y, th4 = pose(link, speed_mm_s, omega, t, y_ground)
+    half = (n - 1) // 2
+    i_min = half + int(np.argmin(y[half:half + n]))            # the lowest point of one turn, inside the window
+    before, after = np.flatnonzero(y[:i_min] > clearance), np.flatnonzero(y[i_min:] > clearance)
+    if not len(before) or not len(after):
+        raise ValueError(f"pepper planter: the tip never rises {clearance:g} mm above the ridge surface")
+    return PlanterPass(float(t[before[-1]]), float(t[i_min]), float(t[i_min + after[0]]), y_ground,
+                       float(-y[i_min]), float(x[i_min]), float(th4[i_min]))

@@ -88,32 +88,42 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
     return params
 
 
+def punch_surface(u_top: float, u_tip: float, radius: float, h: float, a: float):
+    """Triangles of a cylinder-and-cone punch along its axis u (v, w across it), in mm: the cylinder of
+    `radius` from u_top to the cone's base at u_tip - h, the cone to the apex u_tip, cut where the inscribed
+    tip sphere of radius `a` (centre u_sphere) takes over. Returns (triangles, (u_sphere, a))."""
+    half = math.atan2(radius, h)
+    u_sphere = u_tip - a / math.sin(half)
+    u_cut = u_tip - (a / math.sin(half)) * math.cos(half) ** 2
+    r_cut = radius * (u_tip - u_cut) / h
+    top, edge, cut = circle(u_top, radius), circle(u_tip - h, radius), circle(u_cut, r_cut)
+    tris = band(top, edge) + band(edge, cut) + [(cut[i], cut[(i + 1) % SEGMENTS], (u_cut, 0.0, 0.0))
+                                                for i in range(SEGMENTS)]
+    return tris, (u_sphere, a)
+
+
+def circle(u: float, r: float) -> list:
+    """SEGMENTS points of the circle of radius r round the axis at u."""
+    return [(u, r * math.cos(2 * math.pi * i / SEGMENTS), r * math.sin(2 * math.pi * i / SEGMENTS))
+            for i in range(SEGMENTS)]
+
+
+def band(lo: list, hi: list) -> list:
+    """Triangles joining two circles."""
+    tris = []
+    for i in range(SEGMENTS):
+        j = (i + 1) % SEGMENTS
+        tris += [(lo[i], lo[j], hi[j]), (lo[i], hi[j], hi[i])]
+    return tris
+
+
 def punch_mesh(disk, sleeve, a: float):
     """Punch and plate triangles in the punch frame (u along the axis from the disk centre, v in the disk
     plane, w across it), in mm; the tip sphere (centre u, radius) closes the cone."""
-    R, d, h = disk.R, disk.d, disk.h
-    half = math.atan2(d, h)
-    u_sphere = R - a / math.sin(half)
-    u_cut = R - (a / math.sin(half)) * math.cos(half) ** 2
-    r_cut = d * (R - u_cut) / h
-    ring = [(math.cos(2 * math.pi * i / SEGMENTS), math.sin(2 * math.pi * i / SEGMENTS)) for i in range(SEGMENTS)]
-
-    def circle(u, r):
-        return [(u, r * c, r * s) for c, s in ring]
-
-    def band(lo, hi):
-        tris = []
-        for i in range(SEGMENTS):
-            j = (i + 1) % SEGMENTS
-            tris += [(lo[i], lo[j], hi[j]), (lo[i], hi[j], hi[i])]
-        return tris
-
-    top, edge, cut = circle(disk.R0, d), circle(R - h, d), circle(u_cut, r_cut)
-    punch = band(top, edge) + band(edge, cut) + [(cut[i], cut[(i + 1) % SEGMENTS], (u_cut, 0.0, 0.0))
-                                                  for i in range(SEGMENTS)]
-    u_plate = R - sleeve.rest_from_tip
-    plate = band(circle(u_plate, d + SLEEVE_CLEARANCE), circle(u_plate, sleeve.outer_diameter / 2))
-    return punch, plate, (u_sphere, a)
+    punch, sphere = punch_surface(disk.R0, disk.R, disk.d, disk.h, a)
+    u_plate = disk.R - sleeve.rest_from_tip
+    plate = band(circle(u_plate, disk.d + SLEEVE_CLEARANCE), circle(u_plate, sleeve.outer_diameter / 2))
+    return punch, plate, sphere
 
 
 def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: Path | None = None,
@@ -208,6 +218,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     window = (lay.phi_out - math.radians(15), lay.phi_in + math.radians(15))
     tip_speed = v + omega * lay.tip_reach * mm
     free = params["mode"] == "free"
+    box = ((-0.02, L + 0.02), (-0.02, W + 0.02), (-0.02, z_surface + 0.3))
 
     def angle(k):
         """Punch k's angle from straight down now (φ falls as the disk turns)."""
@@ -271,30 +282,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             st["rows"].append((t, axis[0], math.degrees(st["theta"]), st["omega"], k, math.degrees(phi), tip[0], tip_z,
                                fp[0], fp[2], -fs.dot(ax), st["s"][k]))
 
-    def guard():
-        vmax, worst = 0.0, None
-        for i in grain_ids:
-            b = O.bodies[i]
-            p, vel = b.state.pos, b.state.vel.norm()
-            if not (math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2]) and math.isfinite(vel)):
-                raise RuntimeError(f"run: grain {i} has a non-finite position or velocity at t = {O.time:.4f} s")
-            if not (-0.02 < p[0] < L + 0.02 and -0.02 < p[1] < W + 0.02 and -0.02 < p[2] < z_surface + 0.3):
-                raise RuntimeError(f"run: grain {i} left the box at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) m, "
-                                   f"t = {O.time:.4f} s")
-            if vel > vmax:
-                vmax, worst = vel, i
-        if vmax > GUARD_SPEED * tip_speed:
-            raise RuntimeError(f"run: grain {worst} moves at {vmax:.2f} m/s, > {GUARD_SPEED:g} × the tip speed "
-                               f"{tip_speed:.2f} m/s, at t = {O.time:.4f} s (unstable)")
-        ke = utils.kineticEnergy()
-        if not math.isfinite(ke) or ke > 0.5 * bed_mass * tip_speed ** 2:
-            raise RuntimeError(f"run: kinetic energy {ke:.3g} J exceeds the whole bed moving at the tip speed "
-                               f"({0.5 * bed_mass * tip_speed ** 2:.3g} J) at t = {O.time:.4f} s (energy blow-up)")
-        return vmax
-
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[
-        PyRunner(command="hook()", iterPeriod=1, label="hook"), disk_engine, *plate_engines])
-    O.engines[1].avoidSelfInteractionMask = TOOL_SELF
+        PyRunner(command="hook()", iterPeriod=1, label="hook"), disk_engine, *plate_engines], avoid_self_mask=TOOL_SELF)
     import builtins
     builtins.hook = hook                    # PyRunner evaluates its command in YADE's global namespace
     O.dt = preset["dt_safety"] * utils.PWaveTimeStep()
@@ -303,7 +292,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         f"{len(lay.hole_x)} holes at x = {', '.join(f'{x:.0f}' for x in lay.hole_x)} mm")
     report = max(GUARD_EVERY, (n_steps // 50) // GUARD_EVERY * GUARD_EVERY)
     O.trackEnergy = True
-    law = O.engines[2].lawDispatcher.functors[0]
+    law = part.contact_law(O)
 
     def energy_now() -> dict:
         """What the soil holds and has lost so far, and the tools' work on it (J). YADE's gravWork is the
@@ -319,7 +308,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     vmax = 0.0
     while O.iter < n_steps:
         O.run(min(GUARD_EVERY, n_steps - O.iter), True)
-        vmax = max(vmax, guard())
+        vmax = max(vmax, guard(grain_ids, box, GUARD_SPEED * tip_speed, 0.5 * bed_mass * tip_speed ** 2))
         if O.iter % report < GUARD_EVERY or O.iter >= n_steps:
             done = O.iter / n_steps
             formed = sum(1 for k in range(len(lay.hole_x)) if angle(k) < lay.phi_out)
@@ -353,6 +342,32 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids), "energy_J": energy}
     atomic_write(out / "summary.json", json.dumps(summary, indent=1))
     return summary
+
+
+def guard(grain_ids, box, speed_limit: float, ke_limit: float) -> float:
+    """The stability guard: raises RuntimeError naming the cause on a non-finite grain, a grain outside `box`
+    ((x lo, hi), (y lo, hi), (z lo, hi), m), a grain faster than `speed_limit` (m/s) or kinetic energy above
+    `ke_limit` (J); else returns the fastest grain's speed."""
+    from yade import O, utils
+    (x0, x1), (y0, y1), (z0, z1) = box
+    vmax, worst = 0.0, None
+    for i in grain_ids:
+        b = O.bodies[i]
+        p, vel = b.state.pos, b.state.vel.norm()
+        if not (math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2]) and math.isfinite(vel)):
+            raise RuntimeError(f"grain {i} has a non-finite position or velocity at t = {O.time:.4f} s")
+        if not (x0 < p[0] < x1 and y0 < p[1] < y1 and z0 < p[2] < z1):
+            raise RuntimeError(f"grain {i} left the box at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) m, t = {O.time:.4f} s")
+        if vel > vmax:
+            vmax, worst = vel, i
+    if vmax > speed_limit:
+        raise RuntimeError(f"grain {worst} moves at {vmax:.2f} m/s, > {speed_limit:.2f} m/s ({GUARD_SPEED:g} × the "
+                           f"tool's top speed), at t = {O.time:.4f} s (unstable)")
+    ke = utils.kineticEnergy()
+    if not math.isfinite(ke) or ke > ke_limit:
+        raise RuntimeError(f"kinetic energy {ke:.3g} J exceeds the whole bed moving at the tool's top speed "
+                           f"({ke_limit:.3g} J) at t = {O.time:.4f} s (energy blow-up)")
+    return vmax
 
 
 def energy_balance(start: dict, end: dict) -> dict:

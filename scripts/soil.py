@@ -44,12 +44,15 @@ def container(L: float, W: float, H: float, material, t: float = 0.02) -> list:
     return [utils.box(c, e, fixed=True, material=material) for c, e in boxes]
 
 
-def engines(damping: float, cohesion_on_new_contacts: bool, cohesion_now: bool = False, extra=()):
+def engines(damping: float, cohesion_on_new_contacts: bool, cohesion_now: bool = False, extra=(),
+            avoid_self_mask: int = 0):
     """Contact detection, the cohesive-frictional law, and Newton's integration under gravity.
-    `cohesion_now` bonds the contacts that exist at the first step (a settled bed)."""
+    `cohesion_now` bonds the contacts that exist at the first step (a settled bed); bodies whose masks share
+    a bit with `avoid_self_mask` never meet one another (tool parts)."""
     return [
         ForceResetter(),
-        InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb(), Bo1_Facet_Aabb()], label="collider"),
+        InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb(), Bo1_Facet_Aabb()],
+                              avoidSelfInteractionMask=avoid_self_mask, label="collider"),
         InteractionLoop(
             [Ig2_Sphere_Sphere_ScGeom6D(), Ig2_Box_Sphere_ScGeom6D(), Ig2_Facet_Sphere_ScGeom6D()],
             [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(setCohesionOnNewContacts=cohesion_on_new_contacts,
@@ -59,3 +62,8 @@ def engines(damping: float, cohesion_on_new_contacts: bool, cohesion_now: bool =
         *extra,
         NewtonIntegrator(gravity=GRAVITY, damping=damping, label="newton"),
     ]
+
+
+def contact_law(O):
+    """The scene's cohesive-frictional law functor (it books the contacts' elastic energy)."""
+    return next(e for e in O.engines if isinstance(e, InteractionLoop)).lawDispatcher.functors[0]
