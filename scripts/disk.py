@@ -142,29 +142,15 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                             quiet=quiet, bed_dir=bed_dir or bedmod.BED_DIR,
                             overrides={k: params["soil"][k] for k in soil.settling_key()})
     meta = bedmod.load_meta(bed_path)
-    out = (out_root or ROOT / "results/runs") / params["id"]
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "summary.json").unlink(missing_ok=True)
-    atomic_write(out / "config.json", json.dumps(params, indent=1))
-
-    from scripts.yadeboot import boot
-    boot(threads)
-    import numpy as np
-    from yade import O, PyRunner, RotationEngine, TranslationEngine, Vector3, utils
-    from scripts import soil as part
-    from analysis.metrology import surface_level
+    out = open_run_folder(out_root, params)
 
     wall0 = time.time()
-    O.reset()
-    data = np.load(bed_path)
+    # tall walls: a flung grain falls back in
+    data, grain_ids, steel, z_surface, bed_mass = start_scene(soil, bed_path, meta, threads, 0.2)
+    from yade import O, PyRunner, RotationEngine, TranslationEngine, Vector3, utils
+    from scripts import soil as part
     L, W, D = meta["size_m"]
-    mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=True))
-    steel = O.materials.append(part.steel_material(soil))
-    grain_ids = O.bodies.append([utils.sphere(tuple(p), r, material=mat) for p, r in zip(data["pos"], data["radius"])])
     n_particles = len(grain_ids)
-    bed_mass = sum(O.bodies[i].state.mass for i in grain_ids)
-    z_surface = surface_level(data["pos"], data["radius"], 4 * meta["radius"])
-    O.bodies.append(part.container(L, W, z_surface + 0.2, steel))     # tall: a flung grain falls back in
 
     mm = 1e-3
     v, omega = lay.speed * mm, lay.omega
@@ -194,8 +180,6 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     for i in tool_ids:                      # the tool's parts never touch each other or the walls, only grains,
         O.bodies[i].mask = TOOL_MASK        # and YADE's local damping (which books energy even for bodies that
         O.bodies[i].state.isDamped = False  # engines move) is not theirs
-    for i in grain_ids:
-        O.bodies[i].mask = GRAIN_MASK
 
     rot = RotationEngine(rotationAxis=(0, 1, 0), angularVelocity=omega, rotateAroundZero=True, zeroPoint=axis0)
     advance = TranslationEngine(translationAxis=(1, 0, 0), velocity=v)
@@ -318,13 +302,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     wall = time.time() - wall0
     energy = energy_balance(energy0, energy_now())
     log(f"run: energy {energy}")
-    pos = np.array([tuple(O.bodies[i].state.pos) for i in grain_ids])
-    rad = np.array([O.bodies[i].shape.radius for i in grain_ids])
-    tmp = out / ".state.tmp.npz"
-    np.savez_compressed(tmp, pos=pos, radius=rad, z_surface=z_surface, initial_pos=data["pos"])
-    tmp.replace(out / "state.npz")
-    header = "t_s,axis_x_m,theta_deg,omega_rad_s,punch,phi_deg,tip_x_m,tip_z_m,punch_fx_n,punch_fz_n,sleeve_force_n,sleeve_travel_m\n"
-    atomic_write(out / "timeseries.csv", header + "".join(",".join(f"{x:.6g}" for x in r) + "\n" for r in st["rows"]))
+    save_state(out, grain_ids, z_surface, data, "t_s,axis_x_m,theta_deg,omega_rad_s,punch,phi_deg,tip_x_m,tip_z_m,"
+               "punch_fx_n,punch_fz_n,sleeve_force_n,sleeve_travel_m", st["rows"])
     if vtk:
         from yade import export
         exp = export.VTKExporter(str(out / "vtk" / "scene"))
@@ -342,6 +321,52 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids), "energy_J": energy}
     atomic_write(out / "summary.json", json.dumps(summary, indent=1))
     return summary
+
+
+def open_run_folder(out_root: Path | None, params: dict) -> Path:
+    """results/runs/<id>/ with the run's config.json, and no summary.json until the run has finished."""
+    out = (out_root or ROOT / "results/runs") / params["id"]
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "summary.json").unlink(missing_ok=True)
+    atomic_write(out / "config.json", json.dumps(params, indent=1))
+    return out
+
+
+def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: float):
+    """YADE started on `threads` with the bed part of a scene: the settled grains of bed_path (scripts/bed.py)
+    in the soil's cohesive material (mask GRAIN_MASK), a steel material for tools and walls, and the
+    container's walls `wall_above` m over the bed's top. Returns (the bed's arrays, grain ids, steel material
+    id, the bed's surface level z (m), the bed's mass (kg))."""
+    import numpy as np
+    from scripts.yadeboot import boot
+    boot(threads)
+    from yade import O, utils
+    from scripts import soil as part
+    from analysis.metrology import surface_level
+    O.reset()
+    data = np.load(bed_path)
+    L, W, _ = meta["size_m"]
+    mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=True))
+    steel = O.materials.append(part.steel_material(soil))
+    grain_ids = O.bodies.append([utils.sphere(tuple(p), r, material=mat, mask=GRAIN_MASK)
+                                 for p, r in zip(data["pos"], data["radius"])])
+    bed_mass = sum(O.bodies[i].state.mass for i in grain_ids)
+    z_surface = surface_level(data["pos"], data["radius"], 4 * meta["radius"])
+    O.bodies.append(part.container(L, W, z_surface + wall_above, steel))
+    return data, grain_ids, steel, z_surface, bed_mass
+
+
+def save_state(out: Path, grain_ids, z_surface: float, data, header: str, rows):
+    """The run's final grains (state.npz: positions, radii, the bed's level and initial positions, which
+    analysis/ reads without YADE) and its time series (timeseries.csv), each written atomically."""
+    import numpy as np
+    from yade import O
+    pos = np.array([tuple(O.bodies[i].state.pos) for i in grain_ids])
+    rad = np.array([O.bodies[i].shape.radius for i in grain_ids])
+    tmp = out / ".state.tmp.npz"
+    np.savez_compressed(tmp, pos=pos, radius=rad, z_surface=z_surface, initial_pos=data["pos"])
+    tmp.replace(out / "state.npz")
+    atomic_write(out / "timeseries.csv", header + "\n" + "".join(",".join(f"{x:.6g}" for x in r) + "\n" for r in rows))
 
 
 def guard(grain_ids, box, speed_limit: float, ke_limit: float) -> float:

@@ -100,7 +100,8 @@ def plan(path="configs/pepper.toml", **changes) -> dict:
 def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: Path | None = None,
              quiet: bool = False) -> dict:
     from scripts import bed as bedmod
-    from scripts.disk import GRAIN_MASK, GUARD_EVERY, GUARD_SPEED, TOOL_MASK, TOOL_SELF, guard, punch_surface
+    from scripts.disk import (GUARD_EVERY, GUARD_SPEED, TOOL_MASK, TOOL_SELF, guard, open_run_folder, punch_surface,
+                              save_state, start_scene)
     from analysis import pepper
     planter, scene, ps = params["planter"], params["soil_scene"], params["pass"]
     soil = load_soil(params["soil"]["name"])
@@ -108,29 +109,14 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     bed_path = bedmod.build(soil.name, scene["resolution"], params["bed_size_mm"], params["seed"], threads,
                             quiet=quiet, bed_dir=bed_dir or bedmod.BED_DIR)
     meta = bedmod.load_meta(bed_path)
-    out = (out_root or ROOT / "results/runs") / params["id"]
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "summary.json").unlink(missing_ok=True)
-    atomic_write(out / "config.json", json.dumps(params, indent=1))
+    out = open_run_folder(out_root, params)
 
-    from scripts.yadeboot import boot
-    boot(threads)
+    wall0 = time.time()
+    data, grain_ids, steel, z_surface, bed_mass = start_scene(soil, bed_path, meta, threads, 0.3)
     import numpy as np
     from yade import O, PyRunner, RotationEngine, TranslationEngine, Vector3, utils
     from scripts import soil as part
-    from analysis.metrology import surface_level
-
-    wall0 = time.time()
-    O.reset()
-    data = np.load(bed_path)
     L, W, D = meta["size_m"]
-    mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=True))
-    steel = O.materials.append(part.steel_material(soil))
-    grain_ids = O.bodies.append([utils.sphere(tuple(p), r, material=mat, mask=GRAIN_MASK)
-                                 for p, r in zip(data["pos"], data["radius"])])
-    bed_mass = sum(O.bodies[i].state.mass for i in grain_ids)
-    z_surface = surface_level(data["pos"], data["radius"], 4 * meta["radius"])
-    O.bodies.append(part.container(L, W, z_surface + 0.3, steel))
 
     mm = 1e-3
     link = pepper.Linkage(**{k: (math.radians(v) if k in ("beta", "theta3", "alpha", "theta5") else v)
@@ -213,13 +199,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             f"settled below {scene['settled_speed']:g})  wall {time.time() - wall0:.0f} s")
     settled = v_now <= scene["settled_speed"]
     wall = time.time() - wall0
-    pos = np.array([tuple(O.bodies[i].state.pos) for i in grain_ids])
-    rad = np.array([O.bodies[i].shape.radius for i in grain_ids])
-    tmp = out / ".state.tmp.npz"
-    np.savez_compressed(tmp, pos=pos, radius=rad, z_surface=z_surface, initial_pos=data["pos"])
-    tmp.replace(out / "state.npz")
-    header = "t_s,ref_x_m,tip_z_m,psi_deg,planter_fx_n,planter_fz_n\n"
-    atomic_write(out / "timeseries.csv", header + "".join(",".join(f"{x:.6g}" for x in r) + "\n" for r in st["rows"]))
+    save_state(out, grain_ids, z_surface, data, "t_s,ref_x_m,tip_z_m,psi_deg,planter_fx_n,planter_fz_n", st["rows"])
     summary = {"id": params["id"], "scene": "duckbeak", "soil": soil.name, "preset": scene["resolution"],
                "bed": meta["key"], "particles": len(grain_ids), "steps": int(O.iter), "dt": O.dt, "wall_s": wall,
                "threads": threads, "particle_steps_per_s": len(grain_ids) * O.iter / wall, "sim_time_s": O.time,

@@ -148,16 +148,10 @@ def main() -> int:
                          "punch_force_z_end_n": float(force[-1]) if phase == "punch" and force else np.nan})
 
     print("bench peer: YADE ...", file=sys.stderr, flush=True)
-    from scripts.yadeboot import boot
-    boot(1)
+    from scripts.disk import TOOL_MASK, TOOL_SELF, start_scene
+    _, grains, steel, _, _ = start_scene(soil, bed_path, meta, 1, H - z_top)
     from yade import O, TranslationEngine, utils
     from scripts import soil as part
-    from scripts.disk import GRAIN_MASK, TOOL_MASK, TOOL_SELF
-    O.reset()
-    mat = O.materials.append(part.soil_material(soil, density=density, cohesive=True))
-    steel = O.materials.append(part.steel_material(soil))
-    grains = O.bodies.append([utils.sphere(tuple(p), r, material=mat, mask=GRAIN_MASK) for p, r in zip(pos, rad)])
-    O.bodies.append(part.container(L, W, H, steel))
     mm = 1e-3
     tool = [O.bodies.append(utils.facet([tuple(c * mm for c in v) for v in t], material=steel, mask=TOOL_MASK))
             for t in mesh]
