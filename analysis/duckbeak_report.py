@@ -21,12 +21,11 @@ FILES = ("hole.csv", "summary.json", "holes_top.png", "holes_sections.png", "pas
 
 def beak_outline(cfg: dict, t: float) -> np.ndarray:
     """The planter's side outline (x, z mm, bed frame, z up from the ridge surface) at crank time t: the
-    closed beak's cone from its blunt tip P and the body above it, on the axis ψ = θ4 - θ4(bottom) - 90° (scripts/duckbeak.py)."""
+    closed beak's cone from its blunt tip P and the body above it, on the axis pepper.beak_axis."""
     p, ps = cfg["planter"], cfg["pass"]
-    link = pepper.Linkage(**{k: (math.radians(v) if k in ("beta", "theta3", "alpha", "theta5") else v)
-                             for k, v in cfg["linkage"].items()})
+    link = pepper.linkage_from_config(cfg["linkage"])
     x, y, th4 = pepper.pose(link, cfg["speed_mm_s"], cfg["omega_rad_s"], [t], ps["y_ground"])
-    psi = float(th4[0]) - ps["theta4_bottom"] - math.pi / 2
+    psi = float(pepper.beak_axis(th4[0], ps["theta4_bottom"]))
     e, n = np.array([math.cos(psi), math.sin(psi)]), np.array([-math.sin(psi), math.cos(psi)])
     tip = np.array([float(x[0]) + cfg["x_shift_mm"], float(y[0])])
     r, b, top = p["D"] / 2, p["beak_length"] - cfg["tip"]["blunt"], p["beak_length"] + p["body_length"]

@@ -38,8 +38,9 @@ def hole_tool(cfg: dict) -> tuple[float, float]:
 
 def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
     """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2,
-    the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...); the probe is the mean grain radius. Also returns what the pictures need: the hole
-    measures, the undisturbed level, the probed surface and the loaded run."""
+    the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...);
+    the probe is the mean grain radius. Also returns what the pictures need: the hole measures, the
+    undisturbed level, the probed surface and the loaded run."""
     cfg, summary, state = loaded = load_run(folder)
     seedling = load_seedling(seedling_path)
     pos, rad, pos0 = state["pos"] * 1000, state["radius"] * 1000, state["initial_pos"] * 1000

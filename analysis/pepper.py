@@ -14,7 +14,7 @@ coefficient of sin θ4 is -2·L4·b).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -39,15 +39,25 @@ class Linkage:
     branch: int = 1    # the ± of eq (13)
 
 
+ANGLES = ("beta", "theta3", "alpha", "theta5")     # Linkage fields in radians, in degrees in configs and results
+
+
+def linkage_from_config(values: dict) -> Linkage:
+    """A Linkage from lengths in mm and ANGLES in degrees (configs/pepper.toml, a scene's config.json)."""
+    return Linkage(**{k: (math.radians(v) if k in ANGLES else v) for k, v in values.items()})
+
+
+def linkage_to_config(link: Linkage) -> dict:
+    """The inverse of linkage_from_config."""
+    return {k: (math.degrees(v) if k in ANGLES else v) for k, v in asdict(link).items()}
+
+
 def load_linkage(column: str = "designed", path="configs/pepper.toml", **changes) -> Linkage:
     """Table 2's `initial` or `designed` column with the frame of [frame]; angles converted to radians."""
     data = read_toml(path)
     if column not in ("initial", "designed"):
         raise ConfigError(f"pepper column = {column!r}: allowed initial, designed")
-    values = {**data[column], **data["frame"]}
-    for k in ("beta", "theta3", "alpha", "theta5"):
-        values[k] = math.radians(values[k])
-    return replace(Linkage(**values), **changes)
+    return replace(linkage_from_config({**data[column], **data["frame"]}), **changes)
 
 
 def u(angle):
@@ -215,6 +225,12 @@ def pose(link: Linkage, speed_mm_s: float, omega: float, t, y_ground: float):
     s = solve(link, omega * t)
     Z = s["P"] - speed_mm_s * t
     return Z.real, Z.imag - y_ground, s["theta4"]
+
+
+def beak_axis(theta4, theta4_bottom: float):
+    """The beak's axis, tip-wards, as an angle ψ from +x (rad): rigid on the body DM (it turns with θ4), and
+    pointing straight down at P's lowest point, since the text gives no angle between DM and the beak."""
+    return np.asarray(theta4, float) - theta4_bottom - math.pi / 2
 
 
 @dataclass(frozen=True)

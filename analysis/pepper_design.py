@@ -14,8 +14,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from analysis.config import ConfigError, read_toml
-from analysis.pepper import (Linkage, assembly_margin, dead_point_margin, load_linkage, motion, solve,
-                             trajectory, trajectory_metrics)
+from analysis.pepper import (ANGLES, Linkage, assembly_margin, dead_point_margin, linkage_to_config, load_linkage,
+                             motion, solve, trajectory, trajectory_metrics)
 
 VARIABLES = ("L1", "L2", "L4", "L5", "L6", "L8", "beta")
 GOAL_NAMES = ("spread", "depth", "height")
@@ -46,7 +46,7 @@ def load_goals(path="configs/pepper.toml") -> Goals:
 def ranges(path="configs/pepper.toml") -> np.ndarray:
     """Table 2's design ranges as (lo, hi) rows in VARIABLES' order, β in rad."""
     r = read_toml(path)["range"]
-    return np.array([[math.radians(v) for v in r[k]] if k == "beta" else r[k] for k in VARIABLES], float)
+    return np.array([[math.radians(v) for v in r[k]] if k in ANGLES else r[k] for k in VARIABLES], float)
 
 
 def with_values(link: Linkage, x) -> Linkage:
@@ -155,9 +155,8 @@ def table(columns: dict, goals: Goals):
     import pandas as pd
     rows = []
     for k in VARIABLES:
-        rows.append({"quantity": k, "unit": "deg" if k == "beta" else "mm",
-                     **{c: (math.degrees(getattr(link, k)) if k == "beta" else getattr(link, k))
-                        for c, (link, _) in columns.items()}})
+        rows.append({"quantity": k, "unit": "deg" if k in ANGLES else "mm",
+                     **{c: linkage_to_config(link)[k] for c, (link, _) in columns.items()}})
     for i, name in enumerate(GOAL_NAMES):
         rows.append({"quantity": name, "unit": "mm", "goal": goals.target[i],
                      **{c: F[i] for c, (_, F) in columns.items()},

@@ -43,6 +43,7 @@ GUARD_EVERY = 200           # steps between stability checks
 GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100   # grains meet grains, walls (mask 1) and tools (bit 2);
 # tools meet grains only: bodies with the same mask sharing a bit with the collider's avoidSelfInteractionMask never meet
 GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
+ESCAPE, ESCAPE_ABOVE = 0.02, 0.3   # m: a grain this far past the walls or floor, or above the surface, has left
 RUN_FIELDS = {"slip": Field(0.0, 0.9, meaning="slip rate δ"),
               "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
               "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)")}
@@ -149,7 +150,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     data, grain_ids, steel, z_surface, bed_mass = start_scene(soil, bed_path, meta, threads, 0.2)
     from yade import O, PyRunner, RotationEngine, TranslationEngine, Vector3, utils
     from scripts import soil as part
-    L, W, D = meta["size_m"]
+    W = meta["size_m"][1]
     n_particles = len(grain_ids)
 
     mm = 1e-3
@@ -176,10 +177,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         punch_ids.append(ids)
         plate_ids.append([O.bodies.append(utils.facet([world(p, phi) for p in tri], material=steel))
                           for tri in plate_tris])
-    tool_ids = [i for ids in punch_ids + plate_ids for i in ids]
-    for i in tool_ids:                      # the tool's parts never touch each other or the walls, only grains,
-        O.bodies[i].mask = TOOL_MASK        # and YADE's local damping (which books energy even for bodies that
-        O.bodies[i].state.isDamped = False  # engines move) is not theirs
+    tool_ids = as_tool([i for ids in punch_ids + plate_ids for i in ids])
 
     rot = RotationEngine(rotationAxis=(0, 1, 0), angularVelocity=omega, rotateAroundZero=True, zeroPoint=axis0)
     advance = TranslationEngine(translationAxis=(1, 0, 0), velocity=v)
@@ -202,7 +200,6 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     window = (lay.phi_out - math.radians(15), lay.phi_in + math.radians(15))
     tip_speed = v + omega * lay.tip_reach * mm
     free = params["mode"] == "free"
-    box = ((-0.02, L + 0.02), (-0.02, W + 0.02), (-0.02, z_surface + 0.3))
 
     def angle(k):
         """Punch k's angle from straight down now (φ falls as the disk turns)."""
@@ -292,7 +289,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     vmax = 0.0
     while O.iter < n_steps:
         O.run(min(GUARD_EVERY, n_steps - O.iter), True)
-        vmax = max(vmax, guard(grain_ids, box, GUARD_SPEED * tip_speed, 0.5 * bed_mass * tip_speed ** 2))
+        vmax = max(vmax, guard(grain_ids, meta, z_surface, GUARD_SPEED * tip_speed, 0.5 * bed_mass * tip_speed ** 2))
         if O.iter % report < GUARD_EVERY or O.iter >= n_steps:
             done = O.iter / n_steps
             formed = sum(1 for k in range(len(lay.hole_x)) if angle(k) < lay.phi_out)
@@ -369,12 +366,23 @@ def save_state(out: Path, grain_ids, z_surface: float, data, header: str, rows):
     atomic_write(out / "timeseries.csv", header + "\n" + "".join(",".join(f"{x:.6g}" for x in r) + "\n" for r in rows))
 
 
-def guard(grain_ids, box, speed_limit: float, ke_limit: float) -> float:
-    """The stability guard: raises RuntimeError naming the cause on a non-finite grain, a grain outside `box`
-    ((x lo, hi), (y lo, hi), (z lo, hi), m), a grain faster than `speed_limit` (m/s) or kinetic energy above
-    `ke_limit` (J); else returns the fastest grain's speed."""
+def as_tool(ids: list) -> list:
+    """Make bodies parts of a tool: they meet grains only, never each other or the walls (collider's
+    avoid_self_mask), and carry no local damping (YADE books it even for bodies that engines move)."""
+    from yade import O
+    for i in ids:
+        O.bodies[i].mask = TOOL_MASK
+        O.bodies[i].state.isDamped = False
+    return ids
+
+
+def guard(grain_ids, meta: dict, z_surface: float, speed_limit: float, ke_limit: float) -> float:
+    """The stability guard: raises RuntimeError naming the cause on a non-finite grain, a grain out of the
+    bed's box (ESCAPE m beyond its walls and floor, ESCAPE_ABOVE m over its surface), a grain faster than
+    `speed_limit` (m/s) or kinetic energy above `ke_limit` (J); else returns the fastest grain's speed."""
     from yade import O, utils
-    (x0, x1), (y0, y1), (z0, z1) = box
+    L, W, _ = meta["size_m"]
+    (x0, x1), (y0, y1), (z0, z1) = (-ESCAPE, L + ESCAPE), (-ESCAPE, W + ESCAPE), (-ESCAPE, z_surface + ESCAPE_ABOVE)
     vmax, worst = 0.0, None
     for i in grain_ids:
         b = O.bodies[i]

@@ -57,6 +57,7 @@ def plan(path="configs/pepper.toml", **changes) -> dict:
     bed it needs (mm, s). `changes` override [planter] and [soil_scene] keys."""
     import numpy as np
     from analysis import pepper
+    from analysis.pepper_design import load_goals
     data = read_toml(path)
     planter = check_table(f"{path} [planter]", {**data["planter"], **{k: v for k, v in changes.items()
                                                                        if k in PLANTER_FIELDS}}, PLANTER_FIELDS)
@@ -66,19 +67,21 @@ def plan(path="configs/pepper.toml", **changes) -> dict:
     if unknown:
         raise ConfigError(f"duckbeak: unknown option(s) {', '.join(unknown)}")
     if scene["width"] <= 2 * planter["D"]:
-        raise ConfigError(f"soil_scene.width = {scene['width']:g} is out of range: allowed > 2 D = {2 * planter['D']:g} mm")
+        raise ConfigError(f"soil_scene.width = {scene['width']:g} is out of range: allowed > 2 D = "
+                          f"{2 * planter['D']:g} mm")
     soil = load_soil(scene["soil"])
     load_resolution(scene["resolution"])
     link = pepper.load_linkage(scene["column"], path)
-    op = data["operation"]
-    speed, omega = 1000 * op["speed"], 2 * math.pi * op["plants_per_min"] / 60      # mm/s, rad/s
+    goals = load_goals(path)                     # the operation: v (mm/s) and the crank's rate ω (rad/s)
+    speed, omega = goals.speed, goals.omega
     ps = pepper.planter_pass(link, speed, omega, scene["clearance"])
     if ps.depth >= planter["beak_length"] + planter["body_length"]:
-        raise ConfigError(f"planter: beak_length + body_length = {planter['beak_length'] + planter['body_length']:g} mm "
+        raise ConfigError(f"planter: beak_length + body_length = "
+                          f"{planter['beak_length'] + planter['body_length']:g} mm "
                           f"is out of range: allowed > the tip's depth {ps.depth:.1f} mm")
     t = np.linspace(ps.t_in, ps.t_out, PASS_SAMPLES)
     x, y, th4 = pepper.pose(link, speed, omega, t, ps.y_ground)
-    psi = th4 - ps.theta4_bottom - math.pi / 2               # the beak's axis, tip-wards, from +x
+    psi = pepper.beak_axis(th4, ps.theta4_bottom)
     top = x - (planter["beak_length"] + planter["body_length"]) * np.cos(psi)
     reach = (min(x.min(), top.min()) - planter["D"] / 2, max(x.max(), top.max()) + planter["D"] / 2)
     length = 10 * math.ceil((reach[1] - reach[0] + 2 * scene["margin"]) / 10)
@@ -87,10 +90,10 @@ def plan(path="configs/pepper.toml", **changes) -> dict:
     # the blunt tip: an inscribed sphere whose lowest point is P; the sharp cone's apex would lie `blunt` beyond it
     tip = {"sphere": a_tip, "blunt": a_tip / math.sin(math.atan2(planter["D"] / 2, planter["beak_length"])) - a_tip}
     params = {"scene": "duckbeak", "soil": as_dict(soil), "planter": planter, "soil_scene": scene, "tip": tip,
-              "linkage": {k: (math.degrees(v) if k in ("beta", "theta3", "alpha", "theta5") else v)
-                          for k, v in dataclasses.asdict(link).items()},
+              "linkage": pepper.linkage_to_config(link),
               "speed_mm_s": speed, "omega_rad_s": omega, "seed": scene["seed"],
-              "pass": dataclasses.asdict(ps), "x_shift_mm": scene["margin"] - reach[0] + (length - (reach[1] - reach[0]) - 2 * scene["margin"]) / 2,
+              "pass": dataclasses.asdict(ps),
+              "x_shift_mm": (length - (reach[1] - reach[0])) / 2 - reach[0],     # the reach centred in the bed
               "bed_size_mm": [length, scene["width"], depth]}
     digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
     params["id"] = f"duckbeak-{soil.name}-{scene['resolution']}-{digest}"
@@ -100,7 +103,7 @@ def plan(path="configs/pepper.toml", **changes) -> dict:
 def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: Path | None = None,
              quiet: bool = False) -> dict:
     from scripts import bed as bedmod
-    from scripts.disk import (GUARD_EVERY, GUARD_SPEED, TOOL_MASK, TOOL_SELF, guard, open_run_folder, punch_surface,
+    from scripts.disk import (GUARD_EVERY, GUARD_SPEED, TOOL_SELF, as_tool, guard, open_run_folder, punch_surface,
                               save_state, start_scene)
     from analysis import pepper
     planter, scene, ps = params["planter"], params["soil_scene"], params["pass"]
@@ -116,18 +119,17 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     import numpy as np
     from yade import O, PyRunner, RotationEngine, TranslationEngine, Vector3, utils
     from scripts import soil as part
-    L, W, D = meta["size_m"]
+    W = meta["size_m"][1]
 
     mm = 1e-3
-    link = pepper.Linkage(**{k: (math.radians(v) if k in ("beta", "theta3", "alpha", "theta5") else v)
-                             for k, v in params["linkage"].items()})
+    link = pepper.linkage_from_config(params["linkage"])
     speed, omega = params["speed_mm_s"], params["omega_rad_s"]
     y_c = W / 2
 
     def target(t):
         """The planter's reference point (its tip sphere's centre, m) and its axis angle ψ at crank time t."""
         x, y, th4 = pepper.pose(link, speed, omega, [t], ps["y_ground"])
-        psi = float(th4[0]) - ps["theta4_bottom"] - math.pi / 2
+        psi = float(pepper.beak_axis(th4[0], ps["theta4_bottom"]))
         e = Vector3(math.cos(psi), 0, math.sin(psi))
         tip = Vector3((float(x[0]) + params["x_shift_mm"]) * mm, y_c, z_surface + float(y[0]) * mm)
         return tip - e * (u_sphere * mm), psi
@@ -142,11 +144,9 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     def world(p):
         return c0 + (e0 * (p[0] + u_sphere) + n0 * p[1] + Vector3(0, 1, 0) * p[2]) * mm
 
-    tool_ids = [O.bodies.append(utils.facet([world(p) for p in tri], material=steel, mask=TOOL_MASK)) for tri in tris]
-    tool_ids.append(O.bodies.append(utils.sphere(c0, r_sphere * mm, fixed=True, material=steel, mask=TOOL_MASK)))
+    tool_ids = as_tool([O.bodies.append(utils.facet([world(p) for p in tri], material=steel)) for tri in tris]
+                       + [O.bodies.append(utils.sphere(c0, r_sphere * mm, fixed=True, material=steel))])
     ref = tool_ids[-1]
-    for i in tool_ids:
-        O.bodies[i].state.isDamped = False
     move = TranslationEngine(translationAxis=(1, 0, 0), velocity=0.0)
     spin = RotationEngine(rotationAxis=(0, 1, 0), angularVelocity=0.0, rotateAroundZero=True, zeroPoint=c0)
     planter_engine = move + spin
@@ -180,7 +180,6 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     O.dt = scene["dt_safety"] * utils.PWaveTimeStep()
     t_pass = ps["t_out"] - ps["t_in"]
     n_pass, n_relax = int(t_pass / O.dt) + 1, int(scene["relax"] / O.dt)
-    box = ((-0.02, L + 0.02), (-0.02, W + 0.02), (-0.02, z_surface + 0.3))
     top_speed = float(np.max(np.abs(pepper.motion(link, omega * np.linspace(ps["t_in"], ps["t_out"], 50), omega)[1]
                                     - speed))) * mm                          # P's fastest, ground frame (m/s)
     log(f"duckbeak {params['id']}: {len(grain_ids)} grains, bed {meta['key']}, pass {1000 * t_pass:.0f} ms "
@@ -193,7 +192,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             for i in tool_ids:
                 O.bodies.erase(i)
         O.run(min(GUARD_EVERY, (n_pass if st["on"] else n_pass + n_relax) - O.iter), True)
-        v_now = guard(grain_ids, box, GUARD_SPEED * top_speed, 0.5 * bed_mass * top_speed ** 2)
+        v_now = guard(grain_ids, meta, z_surface, GUARD_SPEED * top_speed, 0.5 * bed_mass * top_speed ** 2)
         vmax = max(vmax, v_now)
         log(f"duckbeak: t {1000 * O.time:5.1f} ms of {1000 * t_pass:.0f} + settling (fastest grain {v_now:.2f} m/s, "
             f"settled below {scene['settled_speed']:g})  wall {time.time() - wall0:.0f} s")

@@ -38,7 +38,7 @@ LOOP = re.compile(r"Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps wi
 LAST_FORCE = re.compile(rf"^\s*{REST_STEPS + PUNCH_STEPS}\s+\d+\s+\S+\s+(\S+)\s*$", re.M)
 
 
-def liggghts_input(soil, dt: float, L: float, W: float, H: float) -> str:
+def liggghts_input(soil, dt: float, radius: float, L: float, W: float) -> str:
     """The LIGGGHTS script: read the bed, rest, then push the punch mesh (punch.stl, mm) down."""
     mu, mu_w = math.tan(math.radians(soil.friction_deg)), math.tan(math.radians(25.0))
     return f"""# made by scripts/peer.py
@@ -50,7 +50,7 @@ communicate single vel yes
 units si
 processors 1 1 1
 read_data bed.data
-neighbor {0.5 * 0.005:g} bin
+neighbor {0.5 * radius:g} bin
 neigh_modify delay 0
 fix m1 all property/global youngsModulus peratomtype {soil.young:g} {soil.young:g}
 fix m2 all property/global poissonsRatio peratomtype {soil.poisson:g} {soil.poisson:g}
@@ -84,7 +84,8 @@ run {PUNCH_STEPS}
 def write_data(path: Path, pos, rad, density: float, L: float, W: float, H: float):
     lines = ["LIGGGHTS data file made by scripts/peer.py", "", f"{len(rad)} atoms", "2 atom types", "",
              f"0 {L:g} xlo xhi", f"0 {W:g} ylo yhi", f"-0.01 {H:g} zlo zhi", "", "Atoms", ""]
-    lines += [f"{i + 1} 1 {2 * r:.8g} {density:.6g} {p[0]:.8g} {p[1]:.8g} {p[2]:.8g}" for i, (p, r) in enumerate(zip(pos, rad))]
+    lines += [f"{i + 1} 1 {2 * r:.8g} {density:.6g} {p[0]:.8g} {p[1]:.8g} {p[2]:.8g}"
+              for i, (p, r) in enumerate(zip(pos, rad))]
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -130,7 +131,7 @@ def main() -> int:
         tmp = Path(tmp)
         write_data(tmp / "bed.data", pos, rad, density, L, W, H)
         write_stl(tmp / "punch.stl", mesh)
-        (tmp / "in.peer").write_text(liggghts_input(soil, dt, L, W, H))
+        (tmp / "in.peer").write_text(liggghts_input(soil, dt, meta["radius"], L, W))
         print(f"bench peer: LIGGGHTS on {len(rad)} grains, {REST_STEPS} + {PUNCH_STEPS} steps of {dt:.3g} s ...",
               file=sys.stderr, flush=True)
         r = subprocess.run([exe, "-in", "in.peer", "-echo", "none", "-log", "log.liggghts"], cwd=tmp,
@@ -139,24 +140,25 @@ def main() -> int:
                                                                "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"})
         loops = LOOP.findall(r.stdout)
         if r.returncode != 0 or len(loops) != 2:
-            print(f"bench peer: LIGGGHTS failed ({r.returncode}):\n{r.stdout[-2000:]}\n{r.stderr[-2000:]}", file=sys.stderr)
+            print(f"bench peer: LIGGGHTS failed ({r.returncode}):\n{r.stdout[-2000:]}\n{r.stderr[-2000:]}",
+                  file=sys.stderr)
             return 3
         force = LAST_FORCE.findall(r.stdout)
         for phase, (wall, procs, steps, atoms) in zip(("bed at rest", "punch"), loops):
-            rows.append({"code": "LIGGGHTS 3.8.0 (Debian)", "phase": phase, "particles": int(atoms), "steps": int(steps),
+            rows.append({"code": "LIGGGHTS 3.8.0 (Debian)", "phase": phase, "particles": int(atoms),
+                         "steps": int(steps),
                          "wall_s": float(wall), "threads": int(procs),
                          "punch_force_z_end_n": float(force[-1]) if phase == "punch" and force else np.nan})
 
     print("bench peer: YADE ...", file=sys.stderr, flush=True)
-    from scripts.disk import TOOL_MASK, TOOL_SELF, start_scene
+    from scripts.disk import TOOL_SELF, as_tool, start_scene
     _, grains, steel, _, _ = start_scene(soil, bed_path, meta, 1, H - z_top)
     from yade import O, TranslationEngine, utils
     from scripts import soil as part
     mm = 1e-3
-    tool = [O.bodies.append(utils.facet([tuple(c * mm for c in v) for v in t], material=steel, mask=TOOL_MASK))
-            for t in mesh]
-    tool.append(O.bodies.append(utils.sphere(tuple(c * mm for c in world((u_sphere, 0, 0))), a * mm, fixed=True,
-                                             material=steel, mask=TOOL_MASK)))
+    tool = as_tool([O.bodies.append(utils.facet([tuple(c * mm for c in v) for v in t], material=steel)) for t in mesh]
+                   + [O.bodies.append(utils.sphere(tuple(c * mm for c in world((u_sphere, 0, 0))), a * mm, fixed=True,
+                                                   material=steel))])
     push = TranslationEngine(translationAxis=(0, 0, -1), velocity=0.0, ids=tool)
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[push],
                              avoid_self_mask=TOOL_SELF)
