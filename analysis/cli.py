@@ -84,6 +84,25 @@ def cmd_study(args) -> int:
         return 2
 
 
+def cmd_pepper_frame(args) -> int:
+    from analysis import pepper_frame
+    out = Path(args.out) if args.out else ROOT / "results/pepper"
+    if not 1 <= args.fits <= 100000:
+        print(f"pepper-frame: --fits = {args.fits} is out of range: allowed 1-100000", file=sys.stderr)
+        return 2
+    table = pepper_frame.run(out, f"./holes pepper-frame --fits {args.fits}", args.fits,
+                             lambda m: print(m, file=sys.stderr, flush=True))
+    wide = table[table.column != "frame"].pivot_table(index=["column", "quantity"], columns="reading",
+                                                       values="fitted", sort=False)
+    wide.insert(0, "stated", table[table.column != "frame"].groupby(["column", "quantity"], sort=False).stated.first())
+    print(wide.round(3).to_string())
+    print(table[table.column == "frame"].pivot_table(index="quantity", columns="reading", values="fitted",
+                                                     sort=False).round(1).to_string())
+    print(table.groupby("reading", sort=False)[["rms", "fits", "starts"]].first().round(2).to_string())
+    print(f"wrote {out / 'frame_fit.csv'}")
+    return 0
+
+
 def cmd_pepper(args) -> int:
     from analysis import pepper_design
     out = Path(args.out) if args.out else ROOT / "results/pepper"
@@ -183,6 +202,10 @@ def main(argv=None) -> int:
     p.add_argument("--starts", type=int, default=6, help="optimiser starts: Table 2's initial column + random")
     p.add_argument("--out", help="output folder (default results/pepper)")
     p.set_defaults(func=cmd_pepper)
+    p = sub.add_parser("pepper-frame", help="duck-beak mechanism: infer the frame the text omits from its stated results")
+    p.add_argument("--fits", type=int, default=200, help="least-squares fits from random starts, per reading of eq (15)")
+    p.add_argument("--out", help="output folder (default results/pepper)")
+    p.set_defaults(func=cmd_pepper_frame)
     for name, script, text in (("bed", "bed.py", "settle and level a soil bed (cached by soil, resolution, size, seed)"),
                                ("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)"),
                                ("run", "disk.py", "the rolling punch disk with press sleeves in a soil strip"),
