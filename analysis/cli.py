@@ -85,6 +85,7 @@ def cmd_study(args) -> int:
 
 
 def cmd_pepper_frame(args) -> int:
+    import pandas as pd
     from analysis import pepper_frame
     out = Path(args.out) if args.out else ROOT / "results/pepper"
     if not 1 <= args.fits <= 100000:
@@ -92,13 +93,14 @@ def cmd_pepper_frame(args) -> int:
         return 2
     table = pepper_frame.run(out, f"./holes pepper-frame --fits {args.fits}", args.fits,
                              lambda m: print(m, file=sys.stderr, flush=True))
-    wide = table[table.column != "frame"].pivot_table(index=["column", "quantity"], columns="reading",
-                                                       values="fitted", sort=False)
-    wide.insert(0, "stated", table[table.column != "frame"].groupby(["column", "quantity"], sort=False).stated.first())
-    print(wide.round(3).to_string())
-    print(table[table.column == "frame"].pivot_table(index="quantity", columns="reading", values="fitted",
-                                                     sort=False).round(1).to_string())
-    print(table.groupby("reading", sort=False)[["rms", "fits", "starts"]].first().round(2).to_string())
+    results = table[table.column != "frame"]
+    wide = results.pivot_table(index=["column", "quantity"], columns=["target", "reading"], values="fitted", sort=False)
+    wide.insert(0, "stated", results.groupby(["column", "quantity"], sort=False).stated.first())
+    with pd.option_context("display.width", 250, "display.max_columns", 20):
+        print(wide.round(3).to_string())
+        print(table[table.column == "frame"].pivot_table(index="quantity", columns=["target", "reading"],
+                                                         values="fitted", sort=False).round(1).to_string())
+    print(table.groupby(["target", "reading"], sort=False)[["rms", "fits", "starts"]].first().round(2).to_string())
     print(f"wrote {out / 'frame_fit.csv'}")
     return 0
 
