@@ -20,10 +20,12 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import replace
+from functools import lru_cache
 
 import numpy as np
 
 from analysis.pepper import Linkage, assembly_margin, linkage_to_config, load_linkage, motion, trajectory_metrics
+from analysis.pepper_design import load_goals
 
 STATED = {"initial": {"height": 265.0, "depth": 102.1, "spread": 21.6, "v_top": 0.306, "v_bottom": 0.285,
                       "t_top_to_bottom": 0.38},
@@ -32,24 +34,40 @@ STATED = {"initial": {"height": 265.0, "depth": 102.1, "spread": 21.6, "v_top": 
 WEIGHT = {"height": 1.0, "depth": 1.0, "spread": 1.0, "v_top": 0.02, "v_bottom": 0.02, "t_top_to_bottom": 0.03}
 READINGS = ("printed", "relative", "relative, designed β free")
 GEOMETRY = ("height", "depth", "spread")
-TARGETS = {"both columns, all results": (("initial", "designed"), tuple(WEIGHT)),   # fit to these ...
-           "designed alone, geometry": (("designed",), GEOMETRY)}                 # ... and, as a check, to these
+TARGETS = {"both columns, all results": (("initial", "designed"), tuple(WEIGHT), 1.0),  # fit to these ...
+           "designed alone, geometry": (("designed",), GEOMETRY, 0.25)}  # ... and, with a quarter of the fits, to these
 FRAME = ("L3", "theta3", "L14", "alpha", "theta5", "L7")
+FRAME_ANGLES = ("theta3", "alpha", "theta5")
+X_SCALE = (50, 0.5, 50, 0.5, 0.5, 50, 0.3)   # the fit's scale of each unknown (mm, rad; the last: designed β)
 L7_RANGE = (100.0, 350.0)           # mm
 ASSEMBLY_MARGIN = 5.0               # mm
-SPEED, OMEGA = 300.0, 2 * math.pi   # mm/s, rad/s (§3.2: 0.3 m/s, 60 plants/min)
+UNASSEMBLABLE = 300.0               # every residual where the linkage cannot be put together
 N = 721                             # crank positions per turn
+
+
+@lru_cache(maxsize=None)
+def table2(column: str) -> Linkage:
+    """Table 2's column with the config's frame (read once: the fit evaluates thousands of frames)."""
+    return load_linkage(column)
+
+
+@lru_cache(maxsize=None)
+def operation() -> tuple[float, float]:
+    """v (mm/s) and ω (rad/s) of configs/pepper.toml [operation] (§3.2: 0.3 m/s, 60 plants/min)."""
+    goals = load_goals()
+    return goals.speed, goals.omega
 
 
 def observe(link: Linkage) -> dict:
     """The stated quantities of one linkage (mm, m/s, s); ValueError if it cannot be assembled."""
-    m = trajectory_metrics(link, SPEED, OMEGA, N)
+    speed, omega = operation()
+    m = trajectory_metrics(link, speed, omega, N)
     th = np.linspace(0, 2 * np.pi, N)[:-1]
-    s, dP, _ = motion(link, th, OMEGA)
+    s, dP, _ = motion(link, th, omega)
     top, bottom = int(np.argmax(s["P"].imag)), int(np.argmin(s["P"].imag))
-    vx = np.abs(dP.real - SPEED) / 1000.0                   # ground frame: the machine moves along -x
+    vx = np.abs(dP.real - speed) / 1000.0                   # ground frame: the machine moves along -x
     return {"height": m["height"], "depth": m["depth"], "spread": m["spread"], "v_top": float(vx[top]),
-            "v_bottom": float(vx[bottom]), "t_top_to_bottom": ((bottom - top) % (N - 1)) / (N - 1) * 2 * np.pi / OMEGA,
+            "v_bottom": float(vx[bottom]), "t_top_to_bottom": ((bottom - top) % (N - 1)) / (N - 1) * 2 * np.pi / omega,
             "assembly_margin": assembly_margin(link, th)}
 
 
@@ -58,7 +76,7 @@ def columns(x, branch: int, reading: str) -> dict:
     frame = dict(zip(FRAME, map(float, x)), branch=branch)
     out = {}
     for c in STATED:
-        link = replace(load_linkage(c), **frame)
+        link = replace(table2(c), **frame)
         if reading == "printed":
             link = replace(link, L7=0.0)        # P = M + a constant vector: the stated results ignore L7 and β
         elif reading.endswith("free") and c == "designed":
@@ -69,7 +87,7 @@ def columns(x, branch: int, reading: str) -> dict:
 
 def residuals(x, branch: int, reading: str, target: str = "both columns, all results") -> np.ndarray:
     """Weighted misses of the stated results of `target` (TARGETS), and the toggle penalty per column."""
-    cols, keys = TARGETS[target]
+    cols, keys, _ = TARGETS[target]
     r = []
     try:
         for c, link in columns(x, branch, reading).items():
@@ -78,7 +96,7 @@ def residuals(x, branch: int, reading: str, target: str = "both columns, all res
                 r += [(o[k] - STATED[c][k]) / WEIGHT[k] for k in keys]
                 r.append(3.0 * max(0.0, ASSEMBLY_MARGIN - o["assembly_margin"]))
     except ValueError:
-        return np.full(len(cols) * (len(keys) + 1), 300.0)
+        return np.full(len(cols) * (len(keys) + 1), UNASSEMBLABLE)
     return np.array(r)
 
 
@@ -90,18 +108,18 @@ def fit(reading: str, fits: int, target: str = "both columns, all results", seed
     hi = np.array([600, np.pi, 1000, np.pi, np.pi, L7_RANGE[1], math.radians(290)])
     k = 7 if reading.endswith("free") else 6
     lo, hi = lo[:k], hi[:k]
-    bounds = (np.where(hi <= np.pi, -2 * np.pi, lo), np.where(hi <= np.pi, 2 * np.pi, hi))
-    bounds[0][5:], bounds[1][5:] = lo[5:], hi[5:]
+    angle = np.array([q in FRAME_ANGLES for q in FRAME] + [False])[:k]    # starts in one turn, free to go ±2π
+    bounds = (np.where(angle, -2 * np.pi, lo), np.where(angle, 2 * np.pi, hi))
     rng = np.random.default_rng(seed)
     best, starts, done = (math.inf, None, 1), 0, 0
     while done < fits:
         x0, branch = lo + rng.random(k) * (hi - lo), int(rng.choice([-1, 1]))
         starts += 1
-        if residuals(x0, branch, reading, target)[0] == 300.0:
+        if residuals(x0, branch, reading, target)[0] == UNASSEMBLABLE:
             continue                                    # not assemblable: no gradient to follow
         done += 1
         sol = least_squares(residuals, x0, args=(branch, reading, target), bounds=bounds, max_nfev=300,
-                            x_scale=[50, 0.5, 50, 0.5, 0.5, 50, 0.3][:k])
+                            x_scale=X_SCALE[:k])
         rms = float(np.sqrt(np.mean(sol.fun ** 2)))
         if rms < best[0]:
             best = (rms, sol.x, branch)
@@ -109,30 +127,31 @@ def fit(reading: str, fits: int, target: str = "both columns, all results", seed
 
 
 def run(out, command: str, fits: int = 200, progress=None):
-    """Fit every reading to each target (a quarter of the fits for the check); write frame_fit.csv (each
-    stated result beside the fitted value, and the frame)."""
+    """Fit every reading to each target (its share of `fits`); write frame_fit.csv (each stated result beside
+    the fitted value, and the frame)."""
     import pandas as pd
     from analysis.io import atomic_csv, stamp
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for target, reading in ((t, r) for t in TARGETS for r in READINGS):
-        t0, n = time.time(), fits if target == next(iter(TARGETS)) else max(1, fits // 4)
+        t0, n = time.time(), max(1, int(fits * TARGETS[target][2]))
         rms, x, branch, starts = fit(reading, n, target)
         if progress:
             progress(f"pepper-frame: {target}, {reading}: rms {rms:.2f} after {n} fits ({time.time() - t0:.0f} s)")
         base = {"target": target, "reading": reading, "rms": rms, "fits": n, "starts": starts}
-        for c, link in columns(x, branch, reading).items():
+        links = columns(x, branch, reading)
+        for c, link in links.items():
             try:
                 o = observe(link)
             except ValueError:                          # a column the target leaves out may not assemble
                 o = dict.fromkeys((*WEIGHT, "assembly_margin"), float("nan"))
             rows += [{**base, "column": c, "quantity": q, "stated": STATED[c].get(q), "fitted": v}
                      for q, v in o.items()]
-        frame = linkage_to_config(columns(x, branch, reading)["designed"])
+        frame = linkage_to_config(links["designed"])
         rows += [{**base, "column": "frame", "quantity": q, "stated": None,
                   "fitted": frame[q] if q != "L7" or reading != "printed" else float("nan")}
                  for q in (*FRAME, "branch")]
-        rows.append({**base, "column": "designed", "quantity": "beta_deg", "stated": math.degrees(4.8),
+        rows.append({**base, "column": "designed", "quantity": "beta_deg", "stated": math.degrees(4.8),  # Table 2 prints 4.8
                      "fitted": frame["beta"]})
     table = pd.DataFrame(rows)
     atomic_csv(table.round(4), out / "frame_fit.csv", stamp(command))

@@ -104,6 +104,6 @@ def test_frame_inference_recovers_a_known_frame(monkeypatch):
     assert np.max(np.abs(pf.residuals(x_true, 1, "relative"))) < 1e-9
     start = x_true * 1.03
     assert np.sqrt(np.mean(pf.residuals(start, 1, "relative") ** 2)) > 1.0
-    sol = least_squares(pf.residuals, start, args=(1, "relative"), x_scale=[50, 0.5, 50, 0.5, 0.5, 50])
+    sol = least_squares(pf.residuals, start, args=(1, "relative"), x_scale=pf.X_SCALE[:6])
     assert np.max(np.abs(sol.fun)) < 0.5
     assert sol.x == pytest.approx(x_true, rel=0.01)
