@@ -10,10 +10,12 @@ import math
 import re
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import pandas as pd
 
+from analysis.batch import say
 from analysis.config import ROOT, ConfigError, load_soil
 from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
@@ -70,15 +72,27 @@ def cone_result_name(bed: str, cone_scale: float, speed: float, cohesion: float)
 
 
 def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesion: float, seed: int = 1,
-               speed: float = 0.5, threads: int = 2, extra=()) -> dict:
-    """One cone scene in its own YADE process; returns its summary."""
-    r = subprocess.run([sys.executable, str(ROOT / "scripts/cone.py"), "--soil", soil, "--resolution", resolution,
-                        "--size", size, "--cone-scale", str(cone_scale), "--cohesion", str(cohesion),
-                        "--seed", str(seed), "--speed", str(speed), "--threads", str(threads), *extra],
-                       cwd=ROOT, capture_output=True, text=True)
-    if r.returncode != 0:
-        raise RuntimeError(f"cone scene failed for {soil} at cohesion {cohesion:g} Pa:\n{r.stderr[-2000:]}")
-    return json.loads(r.stdout.strip().splitlines()[-1])
+               speed: float = 0.5, threads: int = 2, extra=(), tag: str = "") -> dict:
+    """One cone scene in its own YADE process; its progress lines are echoed (prefixed with `tag`) as it runs.
+    Returns its summary."""
+    cmd = [sys.executable, str(ROOT / "scripts/cone.py"), "--soil", soil, "--resolution", resolution, "--size", size,
+           "--cone-scale", str(cone_scale), "--cohesion", str(cohesion), "--seed", str(seed), "--speed", str(speed),
+           "--threads", str(threads), *extra]
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    tail = []
+
+    def pump():
+        for line in proc.stderr:
+            tail[:] = (tail + [line])[-30:]
+            say(f"{tag}{' ' if tag else ''}{line.rstrip()}")
+    t = threading.Thread(target=pump)
+    t.start()
+    out = proc.stdout.read()
+    proc.wait()
+    t.join()
+    if proc.returncode != 0:
+        raise RuntimeError(f"cone scene failed for {soil} at cohesion {cohesion:g} Pa:\n{''.join(tail)[-2000:]}")
+    return json.loads(out.strip().splitlines()[-1])
 
 
 def write_back(soil: str, keys, value: float):

@@ -44,6 +44,16 @@ def cmd_calibrate(args) -> int:
     return 0
 
 
+def cmd_cone_checks(args) -> int:
+    from analysis import cone_checks
+    try:
+        cone_checks.run(args.config, args.workers, args.threads)
+    except RuntimeError as e:
+        print(f"cone-checks: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
 def cmd_report(args) -> int:
     from analysis import run_report
     for path in run_report.run(args.folder):
@@ -237,6 +247,12 @@ def main(argv=None) -> int:
     scene_batch_options(p, 2, "where comparison.csv/.md and comparison/ go (default results)")
     p.add_argument("--no-run", action="store_true", help="measure the finished runs only; run nothing")
     p.set_defaults(func=cmd_compare)
+    p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "
+                       "cone-to-particle ratio, core density (results/calibration/cone_checks.csv, .png)")
+    p.add_argument("config", nargs="?", default=str(ROOT / "configs/cone_checks.toml"))
+    p.add_argument("--workers", type=int, default=2, help="cone scenes at a time")
+    p.add_argument("--threads", type=int, default=1, help="threads per scene")
+    p.set_defaults(func=cmd_cone_checks)
     p = sub.add_parser("calibration-report", help="table and resistance plot of the accepted calibrations")
     p.set_defaults(func=cmd_calibration_report)
     p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs; "

@@ -75,7 +75,8 @@ def metric_stats(holes: pd.DataFrame, metric: str) -> dict:
 
 def pass_probability(holes: pd.DataFrame, criteria: dict, n_boot: int = 2000, seed: int = 0) -> dict:
     """Pass rate (%) from the per-hole distributions of L0, L1, L2, with a bootstrap 95 % interval, and the
-    raw count (module doc).
+    raw count (module doc). A hole with a NaN measure was not found where the punch entered
+    (metrology.measure_hole): it counts as failed, so the rate is the found fraction × the found holes' rate.
 
     >>> h = pd.DataFrame({"L0": [90., 92, 94], "L1": [50., 52, 54], "L2": [60., 61, 62]})
     >>> r = pass_probability(h, {"L0": 49.5, "L1": 49.5, "L2": 40.0})
@@ -84,8 +85,8 @@ def pass_probability(holes: pd.DataFrame, criteria: dict, n_boot: int = 2000, se
     """
     from statistics import NormalDist
     v = holes[list(criteria)].dropna()
-    n = len(v)
-    if n < 2:
+    n, found = len(holes), len(v) / max(1, len(holes))
+    if len(v) < 2:
         return {"pass_pct": math.nan, "pass_lo": math.nan, "pass_hi": math.nan, "passed": 0, "n": n}
 
     def prob(mu, sd):
@@ -99,11 +100,11 @@ def pass_probability(holes: pd.DataFrame, criteria: dict, n_boot: int = 2000, se
     rng = np.random.default_rng(seed)
     boot = []
     for _ in range(n_boot):
-        sample = {m: rng.normal(mu[m], sd[m], n) for m in criteria}
+        sample = {m: rng.normal(mu[m], sd[m], len(v)) for m in criteria}
         boot.append(prob({m: s.mean() for m, s in sample.items()}, {m: s.std(ddof=1) for m, s in sample.items()}))
     passed = int(np.all([v[m] > t for m, t in criteria.items()], axis=0).sum())
-    return {"pass_pct": 100 * prob(mu, sd), "pass_lo": 100 * float(np.percentile(boot, 2.5)),
-            "pass_hi": 100 * float(np.percentile(boot, 97.5)), "passed": passed, "n": n}
+    return {"pass_pct": 100 * found * prob(mu, sd), "pass_lo": 100 * found * float(np.percentile(boot, 2.5)),
+            "pass_hi": 100 * found * float(np.percentile(boot, 97.5)), "passed": passed, "n": n}
 
 
 def field_consistency(field: pd.DataFrame, criteria: dict) -> pd.DataFrame:

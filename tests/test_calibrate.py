@@ -38,3 +38,32 @@ def test_write_back_keeps_comments_and_validates(tmp_path, monkeypatch):
     assert "normal_cohesion = 1.234e+04  # Pa, tensile bond strength" in text
     s = load_soil(soils / "sand.toml")
     assert s.normal_cohesion == s.shear_cohesion == pytest.approx(12340.0)
+
+
+def test_cone_checks_config_is_checked_before_anything_runs(tmp_path):
+    from analysis import cone_checks
+    from analysis.config import ConfigError
+    cases = cone_checks.load_cases(ROOT / "configs/cone_checks.toml")
+    assert {c["check"] for c in cases} == set(cone_checks.CHECKS)
+    assert len({(c["bed"], c["cone_scale"]) for c in cases}) == len(cases)          # no case twice
+    base = '[base]\nsoil = "clay"\nresolution = "quick"\nsize = [200, 200, 280]\nseed = 1\ncone_scale = 3.0\nspeed = 0.5\n'
+    for case, message in (('check = "depth"', r"check = 'depth': allowed replicate, width, ratio"),
+                          ('check = "width"\nsize = [300, 300]', r"size = \[300, 300\]: give \[length, width, depth\]"),
+                          ('check = "ratio"\ncone_scale = 40.0', r"cone_scale = 40.0 is out of range: allowed \[0.5, 20\]"),
+                          ('check = "ratio"\nsoil = "peat"', "peat")):
+        path = tmp_path / "checks.toml"
+        path.write_text(base + "[[case]]\n" + case + "\n")
+        with pytest.raises(ConfigError, match=message):
+            cone_checks.load_cases(path)
+
+
+def test_cone_checks_summary_states_the_width_change_and_the_scatter():
+    import pandas as pd
+    from analysis import cone_checks
+    common = dict(soil="clay", resolution="quick", target_kpa=450.0, dry_density_core=1270, core_error_percent=3.2)
+    table = pd.DataFrame([dict(check="replicate", seed=1, size_mm="200x200x280", cone_index_kpa=440.0, **common),
+                          dict(check="replicate", seed=2, size_mm="200x200x280", cone_index_kpa=480.0, **common),
+                          dict(check="width", seed=1, size_mm="300x300x280", cone_index_kpa=462.0, **common)])
+    lines = cone_checks.summarise(table)
+    assert lines[0].startswith("clay: cone index 460 ± 28 kPa over 2 seeds (Table 2 450)")
+    assert "+5.0 % against 200x200x280 mm" in lines[1]

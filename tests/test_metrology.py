@@ -53,6 +53,14 @@ def test_an_untouched_bed_has_no_opening():
     assert hole.L0 == 0.0 and hole.L1 == 0.0 and abs(hole.h1) < 4.0
 
 
+def test_a_hole_far_from_where_the_punch_entered_is_not_found():
+    pos, rad, pos0, rad0 = carved_bed(4.0, 10, 0.2)
+    near, far = measure_state(pos, rad, pos0, rad0, 160, [165.0, 185.0], 50.0, 80.0, DIAMETER_MIN)[0]
+    assert near.found and near.x == pytest.approx(150.0, abs=4.0)          # 15 mm off: the same hole
+    assert not far.found and far.x == 185.0                                # 35 mm > D/2: not this punch's
+    assert all(math.isnan(v) for v in (far.L0, far.L1, far.L2, *far.l_depth))
+
+
 def test_criteria_readings_and_a_bad_threshold():
     crit = load_criteria()
     assert crit["stated"] == pytest.approx({"L0": 35 * 2 ** 0.5, "L1": 35 * 2 ** 0.5, "L2": 40.0})
@@ -73,6 +81,10 @@ def test_pass_rate_follows_the_per_hole_distributions():
     half = wide.assign(L2=[38.0, 40, 42])
     r = compare.pass_probability(half, crit)
     assert r["pass_pct"] == pytest.approx(50.0, abs=0.5) and r["pass_lo"] < 50 < r["pass_hi"]
+    # a hole not found (NaN measures) counts as failed: 3 of 4 found, all passing
+    lost = pd.concat([wide, pd.DataFrame({"L0": [np.nan], "L1": [np.nan], "L2": [np.nan]})], ignore_index=True)
+    r = compare.pass_probability(lost, crit)
+    assert r["pass_pct"] == pytest.approx(75.0, abs=0.1) and r["passed"] == 3 and r["n"] == 4
 
 
 def test_interval_of_the_mean_uses_run_means_when_there_are_replicates():

@@ -1,0 +1,192 @@
+"""Checks of the calibrated beds (issue 3), `./holes cone-checks [configs/cone_checks.toml]`: the cone index on
+replicate beds (other packing seeds), on a bed 1.5 × as wide, and against the cone-to-particle diameter ratio
+(grain size or cone size changed), each at the soil config's calibrated cohesion, beside seed 001 Table 2.
+Also the dry density of a 100 cm³ cutting-ring core in each bed (calibration_report.core_density), a density
+check independent of the interior porosity the grain density is set from.
+
+Every case is one cone scene (scripts/cone.py, its own YADE process); cases sharing a bed run one after another,
+others `workers` at a time. A case already in results/cone/ (same bed, cone, speed, and a cohesion within 0.1 %:
+the config keeps 4 significant digits of the calibrated value) is reused. results/calibration/cone_checks.csv is
+rewritten as each case finishes, and cone_checks.png drawn at the end.
+"""
+from __future__ import annotations
+
+import json
+import threading
+from concurrent.futures import ThreadPoolExecutor, as_completed
+
+import numpy as np
+import pandas as pd
+
+from analysis.batch import say
+from analysis.calibrate import cone_index
+from analysis.calibration_report import CAL, core_density
+from analysis.config import ROOT, ConfigError, Field, check_table, load_resolution, load_soil, read_toml
+from analysis.io import atomic_csv, stamp
+from scripts.bed import bed_key, check_size
+from scripts.cone import CONE_FIELDS
+
+CHECKS = ("replicate", "width", "ratio")
+CASE_FIELDS = {"check": Field(kind=str), "soil": Field(kind=str), "resolution": Field(kind=str),
+               "seed": Field(1, 10**6, kind=int), **CONE_FIELDS}
+SAME_COHESION = 1e-3           # relative: a stored cone run at this cohesion is the same case
+
+
+def load_cases(path) -> list[dict]:
+    """The config's cases, each [base] updated by its own fields, all checked before anything runs."""
+    data = read_toml(path)
+    unknown = sorted(set(data) - {"base", "case"})
+    if unknown:
+        raise ConfigError(f"{path}: unknown section(s) {', '.join(unknown)}; allowed base, case")
+    cases = []
+    for i, fields in enumerate(data.get("case", [])):
+        where = f"{path}: case {i + 1}"
+        merged = {**data.get("base", {}), **fields}
+        size = merged.pop("size", None)
+        c = check_table(where, merged, CASE_FIELDS)
+        if c["check"] not in CHECKS:
+            raise ConfigError(f"{where}.check = {c['check']!r}: allowed {', '.join(CHECKS)}")
+        if not isinstance(size, list) or len(size) != 3 or not all(isinstance(v, (int, float)) for v in size):
+            raise ConfigError(f"{where}.size = {size!r}: give [length, width, depth] in mm")
+        c["soil_cfg"], c["res"] = load_soil(c["soil"]), load_resolution(c["resolution"])
+        c["size"], c["size_m"] = size, check_size([v / 1000 for v in size])
+        c["bed"] = bed_key(c["soil_cfg"], c["res"], c["size_m"], c["seed"])
+        cases.append(c)
+    if not cases:
+        raise ConfigError(f"{path}: no [[case]] tables")
+    return cases
+
+
+def stored(case: dict) -> dict | None:
+    """A finished cone run of this case in results/cone/, or None."""
+    for path in sorted((ROOT / "results/cone").glob(f"{case['bed']}-*.json")):
+        s = json.loads(path.read_text())
+        if (s["cone_scale"], s["speed"]) == (case["cone_scale"], case["speed"]) and \
+                abs(s["cohesion_pa"] / case["soil_cfg"].normal_cohesion - 1) <= SAME_COHESION:
+            return s
+    return None
+
+
+def row(case: dict, s: dict) -> dict:
+    """One tidy row: the case, its cone index and bed densities against Table 2, and its cost."""
+    soil = case["soil_cfg"]
+    meta = json.loads((ROOT / "results/beds" / f"{case['bed']}.json").read_text())
+    core = core_density(case["bed"], meta["grain_density"], soil.moisture)
+    return {"check": case["check"], "soil": soil.name, "resolution": case["resolution"],
+            "radius_mm": 1000 * case["res"].radius, "size_mm": "x".join(f"{v:g}" for v in case["size"]),
+            "seed": case["seed"], "cone_diameter_mm": round(1000 * s["cone_diameter_m"], 2),
+            "cone_to_particle": round(s["cone_to_particle"], 2), "cohesion_kpa": round(s["cohesion_pa"] / 1000, 2),
+            "cone_index_kpa": round(s["cone_index_pa"] / 1000, 1), "target_kpa": soil.cone_index / 1000,
+            "ci_error_percent": round(100 * (s["cone_index_pa"] / soil.cone_index - 1), 1),
+            "dry_density_interior": round(meta["dry_bulk_density"]), "dry_density_core": round(core),
+            "target_density": soil.bulk_density,
+            "core_error_percent": round(100 * (core / soil.bulk_density - 1), 1),
+            "particles": s["particles"], "steps": s["steps"], "cone_s": round(s["wall_s"]),
+            "bed_settle_s": round(meta["wall_s"]), "threads": s["threads"], "bed": case["bed"]}
+
+
+def summarise(table: pd.DataFrame) -> list[str]:
+    """The checks' verdicts in words: replicate scatter, the width change, the ratio trend."""
+    lines = []
+    rep = table[table.check == "replicate"]
+    for soil, g in rep.groupby("soil", sort=False):
+        lines.append(f"{soil}: cone index {g.cone_index_kpa.mean():.0f} ± {g.cone_index_kpa.std(ddof=1) if len(g) > 1 else float('nan'):.0f} kPa "
+                     f"over {len(g)} seeds (Table 2 {g.target_kpa.iloc[0]:.0f}); core density "
+                     f"{g.dry_density_core.mean():.0f} kg/m³ ({g.core_error_percent.mean():+.1f} %)")
+    for _, w in table[table.check == "width"].iterrows():
+        ref = rep[(rep.soil == w.soil) & (rep.seed == w.seed) & (rep.resolution == w.resolution)]
+        if len(ref):
+            change = 100 * (w.cone_index_kpa / ref.cone_index_kpa.iloc[0] - 1)
+            lines.append(f"{w.soil}: bed {w.size_mm} mm gives {w.cone_index_kpa:.0f} kPa, {change:+.1f} % against "
+                         f"{ref.size_mm.iloc[0]} mm (criterion < 5 %)")
+    ratio = table[table.check == "ratio"]
+    if len(ratio):
+        lines.append("ratio: " + ", ".join(f"{r.cone_to_particle:.2f} -> {r.cone_index_kpa:.0f} kPa" for r in
+                                           ratio.sort_values("cone_to_particle").itertuples()))
+    return lines
+
+
+def plot(table: pd.DataFrame, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.5))
+    clay = table[table.soil == "clay"]
+    ref = clay[(clay.check == "replicate") & (clay.seed == 1) & (clay.resolution == "quick")]
+    if len(ref):                    # the two sweeps through the calibration case: grain size, then cone size
+        ref = ref.iloc[0]
+        pts = pd.concat([clay[clay.check == "ratio"], ref.to_frame().T])
+        for label, same, marker in (("grain size varied (38.5 mm cone)", "cone_diameter_mm", "o"),
+                                    ("cone size varied (r = 5 mm)", "radius_mm", "s")):
+            p = pts[pts[same] == ref[same]].sort_values("cone_to_particle")
+            a.plot(p.cone_to_particle, p.cone_index_kpa, marker=marker, label=label)
+    if len(clay):
+        t = clay.target_kpa.iloc[0]
+        a.axhspan(0.95 * t, 1.05 * t, color="0.85", label="Table 2 ± 5 %")
+    a.set_xlabel("cone-to-particle diameter ratio")
+    a.set_ylabel("clay cone index over 0-150 mm, kPa")
+    a.legend(fontsize=8)
+    for i, (soil, g) in enumerate(table.groupby("soil", sort=False)):
+        t = g.target_kpa.iloc[0]
+        b.add_patch(plt.Rectangle((i - 0.4, 0.95 * t), 0.8, 0.1 * t, color="0.85"))
+        rep, wide = g[g.check == "replicate"], g[g.check == "width"]
+        b.plot(np.full(len(rep), i - 0.1), rep.cone_index_kpa, "o", color="tab:blue",
+               label="replicate beds (seeds)" if i == 0 else None)
+        b.plot(np.full(len(wide), i + 0.1), wide.cone_index_kpa, "D", color="tab:red",
+               label="bed 1.5 × as wide" if i == 0 else None)
+    b.set_xticks(range(table.soil.nunique()), list(dict.fromkeys(table.soil)))
+    b.set_ylabel("cone index over 0-150 mm, kPa (grey: Table 2 ± 5 %)")
+    b.legend(fontsize=8)
+    fig.suptitle("Virtual cone checks of the calibrated beds")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def run(config=ROOT / "configs/cone_checks.toml", workers: int = 2, threads: int = 1, out=CAL) -> pd.DataFrame:
+    cases = load_cases(config)
+    note = stamp(f"./holes cone-checks {config} --workers {workers} --threads {threads}")
+    done = {i: s for i, c in enumerate(cases) if (s := stored(c)) is not None}
+    rows = {i: row(cases[i], s) for i, s in done.items()}
+    groups: dict[str, list[int]] = {}
+    for i, c in enumerate(cases):
+        if i not in done:
+            groups.setdefault(c["bed"], []).append(i)
+    say(f"cone-checks: {len(cases)} cases, {len(done)} stored, {len(cases) - len(done)} to run "
+        f"({workers} at a time, {threads} thread(s) each)")
+
+    def write():
+        atomic_csv(pd.DataFrame([rows[i] for i in sorted(rows)]), out / "cone_checks.csv", note)
+
+    failures, lock = [], threading.Lock()
+
+    def run_group(ids):
+        """The cases on one bed, one after another (the first may settle the bed)."""
+        for i in ids:
+            c = cases[i]
+            size = ",".join(f"{v:g}" for v in c["size"])
+            tag = f"[{c['check']} {c['soil']} {c['resolution']} {size} s{c['seed']} c{c['cone_scale']:g}]"
+            try:
+                s = cone_index(c["soil"], c["resolution"], size, c["cone_scale"], c["soil_cfg"].normal_cohesion,
+                               c["seed"], c["speed"], threads, tag=tag)
+            except RuntimeError as e:               # a failing scene is reported; the others go on
+                failures.append(f"{tag} {e}")
+                say(failures[-1])
+                continue
+            with lock:
+                rows[i] = row(c, s)
+                write()
+                say(f"cone-checks: {tag} {rows[i]['cone_index_kpa']} kPa; {len(rows)}/{len(cases)} finished, "
+                    f"{len(failures)} failed")
+
+    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+        for fut in [pool.submit(run_group, ids) for ids in groups.values()]:
+            fut.result()
+    write()
+    table = pd.DataFrame([rows[i] for i in sorted(rows)])
+    plot(table, out / "cone_checks.png")
+    for line in summarise(table):
+        print(line)
+    if failures:
+        raise RuntimeError(f"{len(failures)} cone case(s) failed; the table holds the others")
+    return table
