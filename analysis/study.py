@@ -69,7 +69,8 @@ def load_study(path) -> tuple[dict, list[Case]]:
 
 
 def case_row(case: Case, runs_dir: Path, criteria: dict) -> dict:
-    """One tidy row: the case's fields, its cost and its holes' means and pass rate (stated reading)."""
+    """One tidy row: the case's fields, its cost and its holes' means and pass rate (stated reading); `found`
+    counts the holes found where the punch entered (the means are over those, the pass rate over all)."""
     from analysis import measure
     run = runs_dir / case.id
     summary = json.loads((run / "summary.json").read_text())
@@ -77,7 +78,7 @@ def case_row(case: Case, runs_dir: Path, criteria: dict) -> dict:
     stated = criteria["stated"]
     passed = np.all([holes[m] > stated[m] for m in stated], axis=0)
     row = dict(case.fields)
-    row.update({"run": summary["id"], "holes": len(holes)})
+    row.update({"run": summary["id"], "holes": len(holes), "found": int(holes.found.sum())})
     row.update({m: float(holes[m].mean()) for m in METRICS})
     row.update({f"{m}_sd": float(holes[m].std(ddof=1)) if len(holes) > 1 else np.nan for m in METRICS})
     row.update({c: float(holes[c].mean()) for c in holes.columns if c.startswith("l_")})    # l_H, Table 1
@@ -121,7 +122,7 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    keys = [k for k in table.columns if k not in ("run", "holes", "passed", "wall_s", "particles", "steps",
+    keys = [k for k in table.columns if k not in ("run", "holes", "found", "passed", "wall_s", "particles", "steps",
                                                   "threads", "slip_out", "pass_rate", *METRICS)
             and not k.endswith("_sd") and not k.startswith("l_") and table[k].nunique() > 1]
     x = keys[0] if keys else "run"
