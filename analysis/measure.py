@@ -40,7 +40,7 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2,
     the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...);
     the probe is the mean grain radius. A hole not found where the punch entered (metrology.measure_hole)
-    keeps its kinematic x and NaN measures. Also returns what the pictures need: the hole measures, the
+    keeps its kinematic x and NaN measures, and no spacing C is taken to or from it. Also returns what the pictures need: the hole measures, the
     undisturbed level, the probed surface and the loaded run."""
     cfg, summary, state = loaded = load_run(folder)
     seedling = load_seedling(seedling_path)
@@ -51,7 +51,7 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     x = np.array([h.x for h in holes])
     rows = [{"run": summary["id"], "soil": cfg["soil"]["name"], "seed": cfg["seed"], "hole": k + 1,
              "found": h.found, "x": h.x,
-             "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2,
+             "C": (x[k + 1] - x[k]) if k + 1 < len(x) and h.found and holes[k + 1].found else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2,
              "bottom": h.bottom, "grain_radius": float(rad.mean()), "probe": float(rad.mean()), "cell": cell,
              **{f"l_{H}": v for H, v in zip(DEPTHS, h.l_depth)}}
             for k, h in enumerate(holes)]
