@@ -48,10 +48,10 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     measured_x = summary["hole_x_mm"][summary.get("lead_in", 0):]        # lead-in holes are not measured
     holes, z_surface, surf = measure_state(pos, rad, pos0, rad, cfg["bed_size_mm"][1], measured_x,
                                            *hole_tool(cfg), 2 ** 0.5 * seedling.a2, cell=cell)
-    x = np.array([h.x for h in holes])
+    x = np.array([h.x if h.found else np.nan for h in holes])      # C: NaN to or from a hole not found
     rows = [{"run": summary["id"], "soil": cfg["soil"]["name"], "seed": cfg["seed"], "hole": k + 1,
              "found": h.found, "x": h.x,
-             "C": (x[k + 1] - x[k]) if k + 1 < len(x) and h.found and holes[k + 1].found else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2,
+             "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2,
              "bottom": h.bottom, "grain_radius": float(rad.mean()), "probe": float(rad.mean()), "cell": cell,
              **{f"l_{H}": v for H, v in zip(DEPTHS, h.l_depth)}}
             for k, h in enumerate(holes)]
