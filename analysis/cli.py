@@ -249,7 +249,7 @@ def main(argv=None) -> int:
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "
                        "cone-to-particle ratio, core density (results/calibration/cone_checks.csv, .png)")
-    p.add_argument("config", nargs="?", default=str(ROOT / "configs/cone_checks.toml"))
+    p.add_argument("config", nargs="?", default="configs/cone_checks.toml")
     p.add_argument("--workers", type=int, default=2, help="cone scenes at a time")
     p.add_argument("--threads", type=int, default=1, help="threads per scene")
     p.set_defaults(func=cmd_cone_checks)
