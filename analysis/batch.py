@@ -54,6 +54,22 @@ def finished(runs_dir: Path, case_id: str) -> bool:
     return (Path(runs_dir) / case_id / "summary.json").exists()
 
 
+def run_process(cmd: list[str], on_line) -> tuple[int, str]:
+    """Run a scene process from the project root, handing each line of its stderr (progress) to `on_line`
+    as it comes; returns its exit code and its stdout (the scene's summary line)."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+
+    def pump():
+        for line in proc.stderr:
+            on_line(line)
+    t = threading.Thread(target=pump)
+    t.start()
+    out = proc.stdout.read()
+    proc.wait()
+    t.join()
+    return proc.returncode, out
+
+
 def run_case(args: list[str], case_id: str, tag: str, threads: int, runs_dir, bed_dir, echo: bool = True) -> dict:
     """Run one scene (`scripts/disk.py ARGS`) or reuse it; its log goes to runs/<id>.log and its progress
     lines are echoed with `tag` (every 20 s at most). Returns the run's summary; RuntimeError if it failed."""
@@ -62,25 +78,19 @@ def run_case(args: list[str], case_id: str, tag: str, threads: int, runs_dir, be
     runs_dir.mkdir(parents=True, exist_ok=True)
     cmd = [sys.executable, str(ROOT / "scripts/disk.py"), *args, "--threads", str(threads), "--out", str(runs_dir),
            "--bed-dir", str(bed_dir)]
+    last = [time.time()]
     with open(log_path, "w") as log:
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
-        last = [time.time()]
 
-        def pump():
-            for line in proc.stderr:
-                log.write(line)
-                log.flush()
-                if echo and (time.time() - last[0] > 20 or not line.startswith(("run:", "bed:"))):
-                    last[0] = time.time()
-                    say(f"{tag} {line.rstrip()}")
-        t = threading.Thread(target=pump)
-        t.start()
-        out = proc.stdout.read()
-        proc.wait()
-        t.join()
-    if proc.returncode != 0:
+        def on_line(line):
+            log.write(line)
+            log.flush()
+            if echo and (time.time() - last[0] > 20 or not line.startswith(("run:", "bed:"))):
+                last[0] = time.time()
+                say(f"{tag} {line.rstrip()}")
+        returncode, out = run_process(cmd, on_line)
+    if returncode != 0:
         tail = "".join(log_path.read_text().splitlines(keepends=True)[-15:])
-        raise RuntimeError(f"{tag} scripts/disk.py exited {proc.returncode}; log {log_path}:\n{tail}")
+        raise RuntimeError(f"{tag} scripts/disk.py exited {returncode}; log {log_path}:\n{tail}")
     return json.loads(out.strip().splitlines()[-1])
 
 

@@ -8,14 +8,12 @@ from __future__ import annotations
 import json
 import math
 import re
-import subprocess
 import sys
-import threading
 from pathlib import Path
 
 import pandas as pd
 
-from analysis.batch import say
+from analysis.batch import run_process, say
 from analysis.config import ROOT, ConfigError, load_soil
 from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
@@ -78,19 +76,13 @@ def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesio
     cmd = [sys.executable, str(ROOT / "scripts/cone.py"), "--soil", soil, "--resolution", resolution, "--size", size,
            "--cone-scale", str(cone_scale), "--cohesion", str(cohesion), "--seed", str(seed), "--speed", str(speed),
            "--threads", str(threads), *extra]
-    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     tail = []
 
-    def pump():
-        for line in proc.stderr:
-            tail[:] = (tail + [line])[-30:]
-            say(f"{tag}{' ' if tag else ''}{line.rstrip()}")
-    t = threading.Thread(target=pump)
-    t.start()
-    out = proc.stdout.read()
-    proc.wait()
-    t.join()
-    if proc.returncode != 0:
+    def on_line(line):
+        tail[:] = (tail + [line])[-30:]
+        say(f"{tag}{' ' if tag else ''}{line.rstrip()}")
+    returncode, out = run_process(cmd, on_line)
+    if returncode != 0:
         raise RuntimeError(f"cone scene failed for {soil} at cohesion {cohesion:g} Pa:\n{''.join(tail)[-2000:]}")
     return json.loads(out.strip().splitlines()[-1])
 

@@ -47,8 +47,8 @@ def hard_runs(scene_dirs):
 
 @pytest.mark.parametrize("name", list(CASES))
 def test_hard_case_is_stable_or_stops_with_a_named_cause(scene_dirs, hard_runs, name):
-    """Stable (summary with finite hole metrics and energy terms, kinetic energy bounded by the guard) or
-    stopped by the stability guard with a named cause."""
+    """Stable (summary with finite energy terms, kinetic energy bounded by the guard, and a hole either found
+    with finite metrics or reported not found) or stopped by the stability guard with a named cause."""
     r = hard_runs[name]
     if r.returncode == 3:                                  # the stability guard stopped it
         assert "run stopped:" in r.stderr and any(c in r.stderr for c in CAUSES), r.stderr[-2000:]
@@ -59,5 +59,8 @@ def test_hard_case_is_stable_or_stops_with_a_named_cause(scene_dirs, hard_runs, 
     assert all(math.isfinite(v) for v in summary["energy_J"].values())
     holes = measure.run(scene_dirs[0] / summary["id"])
     assert len(holes) == 1
-    for m in ("L0", "L1", "L2", "h1"):
-        assert math.isfinite(holes[m].iloc[0]), (m, holes.iloc[0].to_dict())
+    hole = holes.iloc[0]
+    assert math.isfinite(hole.h1), hole.to_dict()
+    # a hole found where the punch entered has finite measures; one not found (the named outcome when the
+    # strip is churned past recognition, metrology.measure_hole) has none, never plausible numbers
+    assert all(math.isfinite(hole[m]) == bool(hole.found) for m in ("L0", "L1", "L2")), hole.to_dict()
