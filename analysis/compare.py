@@ -85,7 +85,7 @@ def pass_probability(holes: pd.DataFrame, criteria: dict, n_boot: int = 2000, se
     """
     from statistics import NormalDist
     v = holes[list(criteria)].dropna()
-    n, found = len(holes), len(v) / max(1, len(holes))
+    n = len(holes)
     if len(v) < 2:
         return {"pass_pct": math.nan, "pass_lo": math.nan, "pass_hi": math.nan, "passed": 0, "n": n}
 
@@ -96,6 +96,7 @@ def pass_probability(holes: pd.DataFrame, criteria: dict, n_boot: int = 2000, se
             p *= 1 - NormalDist(mu[m], s).cdf(t)
         return p
 
+    found = len(v) / n                                  # the fraction of holes found; the rest fail
     mu, sd = v.mean(), v.std(ddof=1)
     rng = np.random.default_rng(seed)
     boot = []

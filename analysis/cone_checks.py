@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 import threading
-from concurrent.futures import ThreadPoolExecutor, as_completed
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pandas as pd
@@ -90,9 +90,10 @@ def summarise(table: pd.DataFrame) -> list[str]:
     lines = []
     rep = table[table.check == "replicate"]
     for soil, g in rep.groupby("soil", sort=False):
-        lines.append(f"{soil}: cone index {g.cone_index_kpa.mean():.0f} ± {g.cone_index_kpa.std(ddof=1) if len(g) > 1 else float('nan'):.0f} kPa "
-                     f"over {len(g)} seeds (Table 2 {g.target_kpa.iloc[0]:.0f}); core density "
-                     f"{g.dry_density_core.mean():.0f} kg/m³ ({g.core_error_percent.mean():+.1f} %)")
+        sd = g.cone_index_kpa.std(ddof=1) if len(g) > 1 else float("nan")
+        lines.append(f"{soil}: cone index {g.cone_index_kpa.mean():.0f} ± {sd:.0f} kPa over {len(g)} seeds "
+                     f"(Table 2 {g.target_kpa.iloc[0]:.0f}); core density {g.dry_density_core.mean():.0f} kg/m³ "
+                     f"({g.core_error_percent.mean():+.1f} %)")
     for _, w in table[table.check == "width"].iterrows():
         ref = rep[(rep.soil == w.soil) & (rep.seed == w.seed) & (rep.resolution == w.resolution)]
         if len(ref):
@@ -143,7 +144,7 @@ def plot(table: pd.DataFrame, path):
     plt.close(fig)
 
 
-def run(config=ROOT / "configs/cone_checks.toml", workers: int = 2, threads: int = 1, out=CAL) -> pd.DataFrame:
+def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, out=CAL) -> pd.DataFrame:
     cases = load_cases(config)
     note = stamp(f"./holes cone-checks {config} --workers {workers} --threads {threads}")
     done = {i: s for i, c in enumerate(cases) if (s := stored(c)) is not None}

@@ -14,8 +14,8 @@ from analysis.config import load_seedling
 from analysis.io import atomic_csv
 from analysis.metrology import DEPTHS, measure_state
 
-COLUMNS = ["run", "soil", "seed", "hole", "found", "x", "C", "h1", "L0", "L1", "L2", "bottom", "grain_radius", "probe",
-           "cell", *(f"l_{H}" for H in DEPTHS)]
+COLUMNS = ["run", "soil", "seed", "hole", "found", "x", "C", "h1", "L0", "L1", "L2", "bottom", "grain_radius",
+           "probe", "cell", *(f"l_{H}" for H in DEPTHS)]
 
 
 def load_run(folder: Path):
@@ -40,8 +40,8 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2,
     the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...);
     the probe is the mean grain radius. A hole not found where the punch entered (metrology.measure_hole)
-    keeps its kinematic x and NaN measures, and no spacing C is taken to or from it. Also returns what the pictures need: the hole measures, the
-    undisturbed level, the probed surface and the loaded run."""
+    keeps its kinematic x and NaN measures, and no spacing C is taken to or from it. Also returns what the
+    pictures need: the hole measures, the undisturbed level, the probed surface and the loaded run."""
     cfg, summary, state = loaded = load_run(folder)
     seedling = load_seedling(seedling_path)
     pos, rad, pos0 = state["pos"] * 1000, state["radius"] * 1000, state["initial_pos"] * 1000
