@@ -107,11 +107,21 @@ def summarise(table: pd.DataFrame) -> list[str]:
     return lines
 
 
+def curve(r) -> pd.DataFrame | None:
+    """The resistance-depth curve of a table row's cone run (results/cone/<bed>-...csv), or None."""
+    for path in sorted((ROOT / "results/cone").glob(f"{r.bed}-*.json")):
+        s = json.loads(path.read_text())
+        if abs(1000 * s["cone_diameter_m"] - r.cone_diameter_mm) < 0.01 and \
+                abs(s["cohesion_pa"] / (1000 * r.cohesion_kpa) - 1) <= SAME_COHESION:
+            return pd.read_csv(path.with_suffix(".csv"), comment="#")
+    return None
+
+
 def plot(table: pd.DataFrame, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.5))
+    fig, (a, b, c) = plt.subplots(1, 3, figsize=(16, 4.5))
     clay = table[table.soil == "clay"]
     ref = clay[(clay.check == "replicate") & (clay.seed == 1) & (clay.resolution == "quick")]
     if len(ref):                    # the two sweeps through the calibration case: grain size, then cone size
@@ -138,6 +148,17 @@ def plot(table: pd.DataFrame, path):
     b.set_xticks(range(table.soil.nunique()), list(dict.fromkeys(table.soil)))
     b.set_ylabel("cone index over 0-150 mm, kPa (grey: Table 2 ± 5 %)")
     b.legend(fontsize=8)
+    for w in table[table.check == "width"].itertuples():     # the width check's curves beside its reference's
+        ref = table[(table.check == "replicate") & (table.soil == w.soil) & (table.seed == w.seed)
+                    & (table.resolution == w.resolution)]
+        for r, style in [(x, "-") for x in ref.itertuples()] + [(w, "--")]:
+            if (t := curve(r)) is not None:
+                t = t[t.base_depth_m >= 0]
+                c.plot(1000 * t.base_depth_m, t.resistance_pa.rolling(25, center=True).mean() / 1000, style,
+                       label=f"{r.soil}, bed {r.size_mm} mm: {r.cone_index_kpa:.0f} kPa")
+    c.set_xlabel("cone base depth, mm (index: mean over 0-150)")
+    c.set_ylabel("resistance, kPa (running mean of 25 samples)")
+    c.legend(fontsize=8)
     fig.suptitle("Virtual cone checks of the calibrated beds")
     fig.tight_layout()
     fig.savefig(path, dpi=120)

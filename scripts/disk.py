@@ -9,7 +9,9 @@ Parts:
   height h closed by an inscribed steel sphere (the blunt tip the cone scene needed too: many facets meeting in
   one vertex give a grain there too many stiff contacts); on each punch a press sleeve, an annular facet plate;
 - kinematics: the axis advances at v and turns at ω = v / (R(1 - δ)) (eq 1), prescribed; or `--mode free`,
-  where ω is integrated from the soil's torque on the punches (I_disk dω/dt = M_y) and slip comes out;
+  where ω is integrated from the soil's torque on the punches (I_disk dω/dt = M_y) and slip comes out, and
+  with `--weight W` the axis also sinks under W (the machine's own weight on the disk, §1.2: (W/g) dv_z/dt =
+  F_z - W), so the penetration comes out too;
   each sleeve's axial travel s is integrated from the soil's force on it, its return spring
   (preload + stiffness·s), viscous damping, gravity and the centrifugal pull, between its stop and `travel`;
 - recorder: punch and sleeve forces, sleeve travel and the disk's position, every RECORD_DT of simulated time.
@@ -46,7 +48,9 @@ GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blo
 ESCAPE, ESCAPE_ABOVE = 0.02, 0.3   # m: a grain this far past the walls or floor, or above the surface, has left
 RUN_FIELDS = {"slip": Field(0.0, 0.9, meaning="slip rate δ"),
               "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
-              "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)")}
+              "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)"),
+              "weight": Field(1.0, 5000.0, unit="N", meaning="load the disk carries (free mode)")}
+G = 9.81                    # m/s²
 MODES = ("prescribed", "free")
 
 
@@ -59,7 +63,7 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
          speed_kmh: float | None = None, holes: int | None = None, seed: int = 1, mode: str = "prescribed",
          width: float | None = None, depth: float | None = None, overrides: dict | None = None,
          disk_inertia: float = 0.05, lead_in: int | None = None, tool: dict | None = None,
-         resolution: str | None = None, dt_safety: float | None = None) -> dict:
+         resolution: str | None = None, dt_safety: float | None = None, weight: float | None = None) -> dict:
     """Every parameter of the run, checked, before YADE starts."""
     if mode not in MODES:
         raise ConfigError(f"mode = {mode!r}: allowed {', '.join(MODES)}")
@@ -73,6 +77,11 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
     slip = RUN_FIELDS["slip"].check("run.slip", disk.slip if slip is None else slip)
     speed_kmh = RUN_FIELDS["speed_kmh"].check("run.speed_kmh", disk.speed_kmh if speed_kmh is None else speed_kmh)
     RUN_FIELDS["disk_inertia"].check("run.disk_inertia", disk_inertia)
+    if weight is not None:
+        if mode != "free":
+            raise ConfigError(f"run.weight = {weight:g} N needs mode = 'free': allowed only where the soil drives "
+                              "the disk")
+        RUN_FIELDS["weight"].check("run.weight", weight)
     if preset.depth <= disk.penetration + 20:
         raise ConfigError(f"preset.depth = {preset.depth:g} is out of range: allowed > penetration + 20 = "
                           f"{disk.penetration + 20:g} mm")
@@ -85,6 +94,8 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
               "slip": slip, "speed_kmh": speed_kmh, "seed": seed, "mode": mode, "disk_inertia": disk_inertia,
               "layout": {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(lay).items()},
               "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}
+    if weight is not None:                  # only then: the ids of runs without a weight stay as they were
+        params["weight"] = weight
     params["id"] = run_id({k: v for k, v in params.items() if k != "layout"})
     return params
 
@@ -182,11 +193,12 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     rot = RotationEngine(rotationAxis=(0, 1, 0), angularVelocity=omega, rotateAroundZero=True, zeroPoint=axis0)
     advance = TranslationEngine(translationAxis=(1, 0, 0), velocity=v)
     slides = [TranslationEngine(translationAxis=(0, 0, 1), velocity=0.0) for _ in range(disk.N)]
-    disk_engine = advance + rot
+    sink = TranslationEngine(translationAxis=(0, 0, 1), velocity=0.0)   # the axis's vertical motion (weight)
+    disk_engine = advance + rot + sink
     disk_engine.ids = [i for ids in punch_ids for i in ids]
     plate_engines = []
     for k in range(disk.N):
-        e = advance + rot + slides[k]
+        e = advance + rot + sink + slides[k]
         e.ids = plate_ids[k]
         plate_engines.append(e)
 
@@ -195,11 +207,15 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     u_plate0 = (disk.R - sleeve.rest_from_tip) * mm
     travel = sleeve.travel * mm
     st = {"theta": 0.0, "omega": omega, "s": [0.0] * disk.N, "sdot": [0.0] * disk.N, "s_max": [0.0] * disk.N,
-          "tip_min": [math.inf] * disk.N, "next_record": 0.0, "rows": [], "work_tool": 0.0}
-    x_dir, y_dir = Vector3(1, 0, 0), Vector3(0, 1, 0)
+          "tip_min": [math.inf] * disk.N, "next_record": 0.0, "rows": [], "work_tool": 0.0, "z": 0.0, "vz": 0.0,
+          "z_min": 0.0, "z_max": 0.0}
+    x_dir, y_dir, z_dir = Vector3(1, 0, 0), Vector3(0, 1, 0), Vector3(0, 0, 1)
     window = (lay.phi_out - math.radians(15), lay.phi_in + math.radians(15))
     tip_speed = v + omega * lay.tip_reach * mm
     free = params["mode"] == "free"
+    weight = params.get("weight")
+    floor_room = (preset["depth"] - disk.penetration) * mm - 2 * meta["radius"] if weight else math.inf
+    t_load = lay.phi0 / omega               # W grows from 0 while the first punch goes down: no drop onto one tip
 
     def angle(k):
         """Punch k's angle from straight down now (φ falls as the disk turns)."""
@@ -208,9 +224,9 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     def hook():
         """Per step: the axis position, the disk's rotation (free mode), each sleeve's axial motion."""
         dt, t = O.dt, O.time
-        axis = axis0 + Vector3(v * t, 0, 0)
+        axis = axis0 + Vector3(v * t, 0, st["z"])
         rot.zeroPoint = axis
-        torque, slide_power = 0.0, 0.0
+        slide_power = 0.0
         for k in range(disk.N):
             phi = angle(k)
             active = window[0] < phi < window[1]
@@ -220,9 +236,6 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             f_plate = Vector3(0, 0, 0)
             for i in plate_ids[k]:
                 f_plate += O.forces.f(i)
-            if free and active:
-                for i in punch_ids[k] + plate_ids[k]:
-                    torque += (O.bodies[i].state.pos - axis).cross(O.forces.f(i))[1]
             s, sdot = st["s"][k], st["sdot"][k]
             rho = u_plate0 - s
             force = (-f_plate.dot(ax) - (sleeve.preload + k_s * s) - c_s * sdot
@@ -238,12 +251,19 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             slides[k].translationAxis = -ax
             slides[k].velocity = sdot
             slide_power += sdot * f_plate.dot(ax)
-        if free:
+        torque, f_z = utils.sumTorques(tool_ids, y_dir, axis), utils.sumForces(tool_ids, z_dir)
+        if free:                            # I dω/dt = M_y: the soil turns the disk
             st["omega"] += torque / params["disk_inertia"] * dt
             rot.angularVelocity = st["omega"]
-        # the tools' work on the soil: P = -(F_x v + M_y ω) over every tool body, + each plate's slide
-        st["work_tool"] += (slide_power - v * utils.sumForces(tool_ids, x_dir)
-                            - st["omega"] * utils.sumTorques(tool_ids, y_dir, axis)) * dt
+        if weight:                          # (W/g) dv_z/dt = F_z - W(t): the soil carries the disk
+            load = weight * min(1.0, t / t_load)
+            st["vz"] += (f_z - load) * G / weight * dt
+            sink.velocity = st["vz"]
+            st["z"] += st["vz"] * dt
+            st["z_min"], st["z_max"] = min(st["z_min"], st["z"]), max(st["z_max"], st["z"])
+        # the tools' work on the soil: P = -(F_x v + F_z v_z + M_y ω) over every tool body, + each plate's slide
+        st["work_tool"] += (slide_power - v * utils.sumForces(tool_ids, x_dir) - st["vz"] * f_z
+                            - st["omega"] * torque) * dt
         st["theta"] += st["omega"] * dt
         if t >= st["next_record"]:
             st["next_record"] += RECORD_DT
@@ -260,7 +280,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             tip_z = tip[2] - r_sphere * mm - z_surface
             st["tip_min"][k] = min(st["tip_min"][k], tip_z)
             ax, _ = frame(phi)
-            st["rows"].append((t, axis[0], math.degrees(st["theta"]), st["omega"], k, math.degrees(phi), tip[0], tip_z,
+            st["rows"].append((t, axis[0], axis0[2] - axis[2], math.degrees(st["theta"]), st["omega"], k,
+                               math.degrees(phi), tip[0], tip_z,
                                fp[0], fp[2], -fs.dot(ax), st["s"][k]))
 
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[
@@ -290,16 +311,21 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     while O.iter < n_steps:
         O.run(min(GUARD_EVERY, n_steps - O.iter), True)
         vmax = max(vmax, guard(grain_ids, meta, z_surface, GUARD_SPEED * tip_speed, 0.5 * bed_mass * tip_speed ** 2))
+        if weight and -st["z"] > floor_room:
+            raise RuntimeError(f"the disk sank {-1000 * st['z']:.1f} mm under W = {weight:g} N at t = {O.time:.4f} s: "
+                               f"its tips reach the strip's floor ({preset['depth']:g} mm deep); a lighter W or a "
+                               "deeper strip")
         if O.iter % report < GUARD_EVERY or O.iter >= n_steps:
             done = O.iter / n_steps
             formed = sum(1 for k in range(len(lay.hole_x)) if angle(k) < lay.phi_out)
             el = time.time() - wall0
             log(f"run: {100 * done:3.0f} %  travel {v * O.time * 1000:5.0f}/{v * lay.t_end * 1000:.0f} mm  "
-                f"holes {formed}/{len(lay.hole_x)}  wall {el:.0f} s  ETA {el / max(done, 1e-9) * (1 - done):.0f} s")
+                f"holes {formed}/{len(lay.hole_x)}  wall {el:.0f} s  ETA {el / max(done, 1e-9) * (1 - done):.0f} s"
+                + (f"  ω {st['omega']:.2f} rad/s" if free else "") + (f"  sink {-1000 * st['z']:.1f} mm" if weight else ""))
     wall = time.time() - wall0
     energy = energy_balance(energy0, energy_now())
     log(f"run: energy {energy}")
-    save_state(out, grain_ids, z_surface, data, "t_s,axis_x_m,theta_deg,omega_rad_s,punch,phi_deg,tip_x_m,tip_z_m,"
+    save_state(out, grain_ids, z_surface, data, "t_s,axis_x_m,axis_sink_m,theta_deg,omega_rad_s,punch,phi_deg,tip_x_m,tip_z_m,"
                "punch_fx_n,punch_fz_n,sleeve_force_n,sleeve_travel_m", st["rows"])
     if vtk:
         from yade import export
@@ -315,6 +341,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                "tip_min_depth_mm": [-1000 * z for z in st["tip_min"][:len(lay.hole_x)]],
                "sleeve_max_travel_mm": [1000 * s for s in st["s_max"][:len(lay.hole_x)]],
                "slip_out": 1 - v / (st["theta"] / O.time * disk.R * mm) if O.time > 0 else None,
+               "axis_sink_mm": ({"final": -1000 * st["z"], "max": -1000 * st["z_min"], "min": -1000 * st["z_max"]}
+                                if weight else None),   # below the prescribed height; < 0: above it
                "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids), "energy_J": energy}
     atomic_write(out / "summary.json", json.dumps(summary, indent=1))
     return summary
@@ -433,6 +461,7 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--dt-safety", type=float, help="time step / critical time step, overrides the preset")
     p.add_argument("--mode", default="prescribed", help="prescribed | free")
     p.add_argument("--disk-inertia", type=float, default=0.05, help="kg·m², free mode")
+    p.add_argument("--weight", type=float, help="N, free mode: the axis sinks under this load (default: held)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--vtk", action="store_true", help="also write VTK files for ParaView")
@@ -447,7 +476,8 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
 
 def plan_args(a: argparse.Namespace) -> dict:
     return plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
-                parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool), a.resolution, a.dt_safety)
+                parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool), a.resolution, a.dt_safety,
+                a.weight)
 
 
 def plan_from_argv(argv: list[str]) -> dict:

@@ -67,8 +67,24 @@ def test_free_rolling_at_low_resistance_rolls_without_slip(tmp_path):
     assert abs(summary["slip_out"]) < 0.1
 
 
+def test_weight_sets_the_penetration(tmp_path):
+    """Free rolling with sinking under W (deeper strip, one hole): a light disk rides up on its punches, so
+    its tip goes less deep than the prescribed 70 mm; a heavy one sinks until its tips reach the strip's floor,
+    and the run stops saying so instead of writing a hole."""
+    light = run_scene(tmp_path, "--soil", "clay", "--holes", "1", "--lead-in", "0", "--mode", "free", "--threads", "1",
+                      "--depth", "160", "--weight", "100")
+    summary = json.loads(light.stdout.strip().splitlines()[-1])
+    assert 5.0 < summary["tip_min_depth_mm"][0] < 60.0
+    assert summary["axis_sink_mm"]["min"] < -10.0                  # the axis rose above the prescribed height
+    heavy = run_scene(tmp_path, "--soil", "clay", "--holes", "1", "--lead-in", "0", "--mode", "free", "--threads", "1",
+                      "--depth", "160", "--weight", "400", expect_ok=False)
+    assert heavy.returncode == 3 and "sank" in heavy.stderr and "floor" in heavy.stderr
+
+
 @pytest.mark.parametrize("args, field", [(["--slip", "1.5"], "slip"), (["--speed", "0"], "speed_kmh"),
-                                         (["--mode", "dragged"], "mode"), (["--depth", "50"], "depth")])
+                                         (["--mode", "dragged"], "mode"), (["--depth", "50"], "depth"),
+                                         (["--weight", "100"], "weight"),
+                                         (["--mode", "free", "--weight", "0.1"], "weight")])
 def test_bad_run_input_names_the_field(tmp_path, args, field):
     r = run_scene(tmp_path, "--soil", "clay", *args, expect_ok=False)
     assert r.returncode == 2 and field in r.stderr and "allowed" in r.stderr
