@@ -77,7 +77,7 @@ def test_weight_sets_the_penetration(tmp_path):
     assert 5.0 < summary["tip_min_depth_mm"][0] < 60.0
     assert summary["axis_sink_mm"]["min"] < -10.0                  # the axis rose above the prescribed height
     heavy = run_scene(tmp_path, "--soil", "clay", "--holes", "1", "--lead-in", "0", "--mode", "free", "--threads", "1",
-                      "--depth", "160", "--weight", "400", expect_ok=False)
+                      "--depth", "160", "--weight", "2000", expect_ok=False)
     assert heavy.returncode == 3 and "sank" in heavy.stderr and "floor" in heavy.stderr
 
 
