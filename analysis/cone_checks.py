@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import threading
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -57,14 +58,25 @@ def load_cases(path) -> list[dict]:
     return cases
 
 
+def cone_run(bed: str, match) -> tuple[Path, dict] | None:
+    """The first finished cone run on `bed` in results/cone/ whose summary satisfies `match`: (its summary's
+    path, the summary), or None."""
+    for path in sorted((ROOT / "results/cone").glob(f"{bed}-*.json")):
+        s = json.loads(path.read_text())
+        if match(s):
+            return path, s
+    return None
+
+
+def same_cohesion(s: dict, cohesion_pa: float) -> bool:
+    return abs(s["cohesion_pa"] / cohesion_pa - 1) <= SAME_COHESION
+
+
 def stored(case: dict) -> dict | None:
     """A finished cone run of this case in results/cone/, or None."""
-    for path in sorted((ROOT / "results/cone").glob(f"{case['bed']}-*.json")):
-        s = json.loads(path.read_text())
-        if (s["cone_scale"], s["speed"]) == (case["cone_scale"], case["speed"]) and \
-                abs(s["cohesion_pa"] / case["soil_cfg"].normal_cohesion - 1) <= SAME_COHESION:
-            return s
-    return None
+    found = cone_run(case["bed"], lambda s: (s["cone_scale"], s["speed"]) == (case["cone_scale"], case["speed"])
+                     and same_cohesion(s, case["soil_cfg"].normal_cohesion))
+    return found[1] if found else None
 
 
 def row(case: dict, s: dict) -> dict:
@@ -109,12 +121,9 @@ def summarise(table: pd.DataFrame) -> list[str]:
 
 def curve(r) -> pd.DataFrame | None:
     """The resistance-depth curve of a table row's cone run (results/cone/<bed>-...csv), or None."""
-    for path in sorted((ROOT / "results/cone").glob(f"{r.bed}-*.json")):
-        s = json.loads(path.read_text())
-        if abs(1000 * s["cone_diameter_m"] - r.cone_diameter_mm) < 0.01 and \
-                abs(s["cohesion_pa"] / (1000 * r.cohesion_kpa) - 1) <= SAME_COHESION:
-            return pd.read_csv(path.with_suffix(".csv"), comment="#")
-    return None
+    found = cone_run(r.bed, lambda s: abs(1000 * s["cone_diameter_m"] - r.cone_diameter_mm) < 0.01
+                     and same_cohesion(s, 1000 * r.cohesion_kpa))
+    return pd.read_csv(found[0].with_suffix(".csv"), comment="#") if found else None
 
 
 def plot(table: pd.DataFrame, path):

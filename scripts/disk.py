@@ -50,7 +50,6 @@ RUN_FIELDS = {"slip": Field(0.0, 0.9, meaning="slip rate δ"),
               "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
               "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)"),
               "weight": Field(1.0, 5000.0, unit="N", meaning="load the disk carries (free mode)")}
-G = 9.81                    # m/s²
 MODES = ("prescribed", "free")
 
 
@@ -162,6 +161,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     from yade import O, PyRunner, RotationEngine, TranslationEngine, Vector3, utils
     from scripts import soil as part
     W = meta["size_m"][1]
+    g = -part.GRAVITY[2]                    # m/s², the scene's gravity
     n_particles = len(grain_ids)
 
     mm = 1e-3
@@ -239,7 +239,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             s, sdot = st["s"][k], st["sdot"][k]
             rho = u_plate0 - s
             force = (-f_plate.dot(ax) - (sleeve.preload + k_s * s) - c_s * sdot
-                     + m_s * 9.81 * math.cos(phi) + m_s * st["omega"] ** 2 * rho)
+                     + m_s * g * math.cos(phi) + m_s * st["omega"] ** 2 * rho)
             sdot += force / m_s * dt
             if s + sdot * dt < 0.0:
                 sdot = -s / dt
@@ -251,19 +251,21 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             slides[k].translationAxis = -ax
             slides[k].velocity = sdot
             slide_power += sdot * f_plate.dot(ax)
-        torque, f_z = utils.sumTorques(tool_ids, y_dir, axis), utils.sumForces(tool_ids, z_dir)
+        torque = utils.sumTorques(tool_ids, y_dir, axis)
         if free:                            # I dω/dt = M_y: the soil turns the disk
             st["omega"] += torque / params["disk_inertia"] * dt
             rot.angularVelocity = st["omega"]
+        # the tools' work on the soil at this step's velocities: P = -(F_x v + M_y ω [+ F_z v_z]) over every tool
+        # body, + each plate's slide
+        power = slide_power - v * utils.sumForces(tool_ids, x_dir) - st["omega"] * torque
         if weight:                          # (W/g) dv_z/dt = F_z - W(t): the soil carries the disk
-            load = weight * min(1.0, t / t_load)
-            st["vz"] += (f_z - load) * G / weight * dt
+            f_z = utils.sumForces(tool_ids, z_dir)
+            st["vz"] += (f_z - weight * min(1.0, t / t_load)) * g / weight * dt
             sink.velocity = st["vz"]
             st["z"] += st["vz"] * dt
             st["z_min"], st["z_max"] = min(st["z_min"], st["z"]), max(st["z_max"], st["z"])
-        # the tools' work on the soil: P = -(F_x v + F_z v_z + M_y ω) over every tool body, + each plate's slide
-        st["work_tool"] += (slide_power - v * utils.sumForces(tool_ids, x_dir) - st["vz"] * f_z
-                            - st["omega"] * torque) * dt
+            power -= st["vz"] * f_z
+        st["work_tool"] += power * dt
         st["theta"] += st["omega"] * dt
         if t >= st["next_record"]:
             st["next_record"] += RECORD_DT
