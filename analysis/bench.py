@@ -3,6 +3,8 @@
 against the finest case and against the field mean (seed 001 Table 3).
 
     ./holes bench speed-vs-error      ->  results/bench/speed_vs_error.csv and .png
+    ./holes bench economies           ->  results/bench/economies.csv and .png
+
 
 Error of a case: for each of L0, L1, L2 and h1 the difference from the reference (mm), and their mean
 relative size |m - ref| / ref (the `err_*_pct` columns), which the Pareto plot shows against wall time.
@@ -19,6 +21,8 @@ from analysis.io import atomic_csv, machine, read_table, stamp
 
 METRICS = ("L0", "L1", "L2", "h1")
 STUDY = ROOT / "configs/studies/speed_vs_error.toml"
+ECONOMIES = ROOT / "configs/studies/economies.toml"
+SCENE_FIELDS = ("width", "depth", "lead_in", "mode")     # what an economies case may change (else: a seed)
 
 
 def with_numerics(table: pd.DataFrame) -> pd.DataFrame:
@@ -93,17 +97,100 @@ def plot(t: pd.DataFrame, path: Path, note: str):
     plt.close(fig)
 
 
+def economies(table: pd.DataFrame) -> pd.DataFrame:
+    """Each case beside the reference (seed 1, no scene field changed): its cost as a ratio of particle-steps
+    (contention-free) and of CPU time (against the mean CPU time of the reference's packings that recorded
+    one; wall time where none did), and the change of each metric, case − reference; last, the reference's
+    seed-to-seed SD of each metric, the scatter a change is set against."""
+    t = table.copy()
+    for f in SCENE_FIELDS:
+        t[f] = t[f] if f in t else np.nan
+    t["cpu_s"] = t["cpu_s"] if "cpu_s" in t else np.nan
+    t["cost_s"] = t.cpu_s.fillna(t.wall_s)
+    plain = t[list(SCENE_FIELDS)].isna().all(axis=1)
+    ref = t[plain & (t.seed == 1)].iloc[0]
+    timed = t[plain & t.cpu_s.notna()]
+    ref_cost = timed.cpu_s.mean() if len(timed) else ref.wall_s
+    rows = []
+    for r in t[~plain].itertuples():
+        change = next(f for f in SCENE_FIELDS if pd.notna(getattr(r, f)))
+        rows.append({"run": r.run, "change": f"{change} = {getattr(r, change)}", "particles": r.particles,
+                     "steps": r.steps, "cost_s": r.cost_s,
+                     "particle_steps_ratio": r.particles * r.steps / (ref.particles * ref.steps),
+                     "cost_ratio": r.cost_s / ref_cost, **{f"d{m}": getattr(r, m) - ref[m] for m in METRICS}})
+    seeds = t[plain]
+    rows.insert(0, {"run": ref.run, "change": "reference", "particles": ref.particles, "steps": ref.steps,
+                    "cost_s": ref_cost, "particle_steps_ratio": 1.0, "cost_ratio": 1.0,
+                    **{f"d{m}": 0.0 for m in METRICS}})
+    rows.append({"run": " ".join(seeds.run), "change": f"seed-to-seed SD ({len(seeds)} packings)",
+                 **{f"d{m}": seeds[m].std(ddof=1) for m in METRICS}})
+    return pd.DataFrame(rows)
+
+
+def plot_economies(e: pd.DataFrame, path: Path, note: str):
+    """Each economy's change of L0, L1, L2, h1 beside the packings' scatter (± 1 SD, grey), and its cost."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    cases, sd = e.iloc[1:-1], e.iloc[-1]
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 4.8), gridspec_kw={"width_ratios": [2, 1]})
+    x = np.arange(len(METRICS))
+    width = 0.8 / len(cases)
+    for i, m in enumerate(METRICS):
+        ax.add_patch(plt.Rectangle((i - 0.45, -sd[f"d{m}"]), 0.9, 2 * sd[f"d{m}"], color="0.88", zorder=0))
+    for k, r in enumerate(cases.itertuples()):
+        ax.bar(x - 0.4 + (k + 0.5) * width, [getattr(r, f"d{m}") for m in METRICS], width, label=r.change)
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xticks(x, METRICS)
+    ax.set_ylabel("case − reference, mm (grey: ± 1 SD over packings)")
+    ax.legend(fontsize=8)
+    y = np.arange(len(cases))
+    bx.barh(y + 0.2, cases.particle_steps_ratio, 0.4, label="particle-steps")
+    bx.barh(y - 0.2, cases.cost_ratio, 0.4, label="CPU time")
+    bx.axvline(1, color="k", lw=0.8)
+    bx.set_yticks(y, cases.change)
+    bx.set_xlabel("cost / reference's cost")
+    bx.legend(fontsize=8)
+    fig.suptitle(f"economies, one clay hole at r = 8 mm (the missing bar: no hole found)\n{note}", fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def study_table(study_path: Path, workers: int, threads: int, runs_dir, bed_dir, out: Path):
+    """Run a study's cases (finished ones are reused) into out/cases; its table, or None if no case finished."""
+    from analysis import study
+    code = study.run(study_path, workers, threads, None, runs_dir, bed_dir, out / "cases")
+    path = out / "cases" / f"{study.load_study(study_path)[0]['name']}.csv"
+    return code, (read_table(path) if path.exists() else None)
+
+
+def run_economies(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None) -> int:
+    """Run the economies study, then write results/bench/economies.csv and .png."""
+    out = Path(out or ROOT / "results/bench")
+    code, table = study_table(ECONOMIES, workers, threads, runs_dir, bed_dir, out)
+    if table is None:
+        return 1
+    t = economies(table)
+    t["machine"] = machine()
+    note = stamp("./holes bench economies")
+    atomic_csv(t.round(4), out / "economies.csv", note)
+    plot_economies(t, out / "economies.png", note)
+    print(t.drop(columns=["machine"]).round(2).to_string(index=False))
+    return code
+
+
 def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, study_path=STUDY) -> int:
     """Run the study's cases (finished ones are reused), then write the speed-vs-error table and plot."""
     from analysis import study
     from analysis.compare import field_table
     out = Path(out or ROOT / "results/bench")
-    code = study.run(study_path, workers, threads, None, runs_dir, bed_dir, out / "cases")
-    name = study.load_study(study_path)[0]["name"]
-    path = out / "cases" / f"{name}.csv"
-    if not path.exists():
+    code, table = study_table(study_path, workers, threads, runs_dir, bed_dir, out)
+    if table is None:
         return 1
-    t = errors(read_table(path), field_table())
+    name = study.load_study(study_path)[0]["name"]
+    t = errors(table, field_table())
     note = stamp("./holes bench speed-vs-error")
     cols = ["run", "soil", "resolution", "radius_mm", "dt_safety", "young_pa", "particles", "steps", "wall_s",
             "threads", "particle_steps_per_s", *METRICS, *(f"{m}_vs_finest" for m in METRICS),

@@ -140,16 +140,17 @@ def cmd_calibration_report(args) -> int:
 def cmd_bench(args) -> int:
     """`bench beds`: every bed's own measured settling cost (from its metadata) with the machine;
     `bench runs`: every finished disk run's cost, and the wall time per 200 mm of travel (one hole);
-    `bench speed-vs-error`: analysis/bench.py; `bench peer`: scripts/peer.py (LIGGGHTS beside YADE)."""
+    `bench speed-vs-error`, `bench economies`: analysis/bench.py; `bench peer`: scripts/peer.py (LIGGGHTS
+    beside YADE)."""
     import json
     import pandas as pd
     from analysis.io import atomic_csv, machine, stamp
     if args.what == "peer":
         return run_scene("peer.py", [])
-    if args.what == "speed-vs-error":
+    if args.what in ("speed-vs-error", "economies"):
         from analysis import bench
-        return bench.run(workers(args), args.threads,
-                         args.runs_dir, args.bed_dir, args.out)
+        go = bench.run if args.what == "speed-vs-error" else bench.run_economies
+        return go(workers(args), args.threads, args.runs_dir, args.bed_dir, args.out)
     if args.what == "runs":
         rows = []
         for path in sorted((ROOT / "results/runs").glob("*/summary.json")):
@@ -256,11 +257,13 @@ def main(argv=None) -> int:
     p = sub.add_parser("calibration-report", help="table and resistance plot of the accepted calibrations")
     p.set_defaults(func=cmd_calibration_report)
     p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs; "
-                       "`bench speed-vs-error` runs one clay hole at several resolutions (analysis/bench.py); "
+                       "`bench speed-vs-error` runs one clay hole at several resolutions and `bench economies` "
+                       "what each scene economy costs in error (analysis/bench.py); "
                        "`bench peer`: one bed and punch in LIGGGHTS and in YADE (scripts/peer.py)")
-    p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "peer"])
-    p.add_argument("--workers", type=int, help="speed-vs-error: cases at a time (default: cores / threads)")
-    scene_batch_options(p, 1, "speed-vs-error: table folder (default results/bench)")
+    p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "economies", "peer"])
+    p.add_argument("--workers", type=int,
+                   help="speed-vs-error, economies: cases at a time (default: cores / threads)")
+    scene_batch_options(p, 1, "speed-vs-error, economies: table folder (default results/bench)")
     p.set_defaults(func=cmd_bench)
     args, rest = parser.parse_known_args(argv)
     if rest and args.command not in ("bed", "cone", "run", "duckbeak"):

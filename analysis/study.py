@@ -83,7 +83,7 @@ def case_row(case: Case, runs_dir: Path, criteria: dict) -> dict:
     row.update({f"{m}_sd": float(holes[m].std(ddof=1)) if len(holes) > 1 else np.nan for m in METRICS})
     row.update({c: float(holes[c].mean()) for c in holes.columns if c.startswith("l_")})    # l_H, Table 1
     row.update({"pass_rate": float(passed.mean()), "passed": int(passed.sum()),
-                "wall_s": summary["wall_s"], "particles": summary["particles"], "steps": summary["steps"],
+                "wall_s": summary["wall_s"], "cpu_s": summary.get("cpu_s", np.nan), "particles": summary["particles"], "steps": summary["steps"],
                 "threads": summary["threads"], "slip_out": summary.get("slip_out")})
     return row
 
@@ -122,8 +122,9 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    keys = [k for k in table.columns if k not in ("run", "holes", "found", "passed", "wall_s", "particles", "steps",
-                                                  "threads", "slip_out", "pass_rate", *METRICS)
+    cost = ("wall_s", "cpu_s", "particles", "steps", "threads")
+    keys = [k for k in table.columns if k not in ("run", "holes", "found", "passed", *cost, "slip_out", "pass_rate",
+                                                  *METRICS)
             and not k.endswith("_sd") and not k.startswith("l_") and table[k].nunique() > 1]
     x = keys[0] if keys else "run"
     group = keys[1] if len(keys) > 1 else None

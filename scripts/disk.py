@@ -155,7 +155,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     meta = bedmod.load_meta(bed_path)
     out = open_run_folder(out_root, params)
 
-    wall0 = time.time()
+    wall0, cpu0 = time.time(), time.process_time()
     # tall walls: a flung grain falls back in
     data, grain_ids, steel, z_surface, bed_mass = start_scene(soil, bed_path, meta, threads, 0.2)
     from yade import O, PyRunner, RotationEngine, TranslationEngine, Vector3, utils
@@ -324,7 +324,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             log(f"run: {100 * done:3.0f} %  travel {v * O.time * 1000:5.0f}/{v * lay.t_end * 1000:.0f} mm  "
                 f"holes {formed}/{len(lay.hole_x)}  wall {el:.0f} s  ETA {el / max(done, 1e-9) * (1 - done):.0f} s"
                 + (f"  ω {st['omega']:.2f} rad/s" if free else "") + (f"  sink {-1000 * st['z']:.1f} mm" if weight else ""))
-    wall = time.time() - wall0
+    wall, cpu = time.time() - wall0, time.process_time() - cpu0
     energy = energy_balance(energy0, energy_now())
     log(f"run: energy {energy}")
     save_state(out, grain_ids, z_surface, data, "t_s,axis_x_m,axis_sink_m,theta_deg,omega_rad_s,punch,phi_deg,tip_x_m,tip_z_m,"
@@ -337,7 +337,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         exp.exportFacets(ids=[i for ids in punch_ids + plate_ids for i in ids if O.bodies[i].shape.__class__.__name__ == "Facet"])
     summary = {"id": params["id"], "soil": soil.name, "preset": preset["name"], "mode": params["mode"],
                "bed": meta["key"], "particles": n_particles, "steps": int(O.iter), "dt": O.dt, "wall_s": wall,
-               "threads": threads, "particle_steps_per_s": n_particles * O.iter / wall,
+               "cpu_s": cpu, "threads": threads, "particle_steps_per_s": n_particles * O.iter / wall,
                "travel_mm": v * O.time * 1000, "sim_time_s": O.time, "z_surface_m": z_surface,
                "holes": len(lay.hole_x), "lead_in": lay.lead_in, "hole_x_mm": list(lay.hole_x),
                "tip_min_depth_mm": [-1000 * z for z in st["tip_min"][:len(lay.hole_x)]],

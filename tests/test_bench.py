@@ -2,7 +2,7 @@
 import pandas as pd
 import pytest
 
-from analysis.bench import errors, pareto
+from analysis.bench import economies, errors, pareto
 from analysis.compare import field_table
 
 
@@ -35,3 +35,20 @@ def test_errors_are_against_the_finest_base_case_and_the_field_mean():
 def test_pareto_front_keeps_only_unbeaten_cases():
     t = pd.DataFrame({"wall_s": [10, 20, 30, 40], "err": [9.0, 3.0, 5.0, 1.0]})
     assert list(pareto(t, "err")) == [True, True, False, True]
+
+
+def test_economies_are_changes_against_the_seed_1_reference_with_the_seed_scatter():
+    t = pd.DataFrame({"run": list("abcdef"), "seed": [1, 1, 1, 1, 2, 3],
+                      "width": [None, 240, None, None, None, None], "lead_in": [None, None, 0, None, None, None],
+                      "mode": [None, None, None, "free", None, None],
+                      "particles": [100, 150, 100, 100, 100, 100], "steps": [1000, 1000, 600, 1000, 1000, 1000],
+                      "wall_s": [10.0, 30.0, 9.0, 11.0, 10.0, 10.0], "cpu_s": [None, 15.0, 6.0, 11.0, 10.0, 10.0],
+                      "L0": [100.0, 104, 90, 100, 102, 98], "L1": [60.0] * 6, "L2": [30.0] * 6, "h1": [10.0] * 6})
+    e = economies(t).set_index("change")
+    assert list(e.index) == ["reference", "width = 240.0", "lead_in = 0.0", "mode = free",
+                             "seed-to-seed SD (3 packings)"]
+    assert e.loc["width = 240.0", "particle_steps_ratio"] == pytest.approx(1.5)
+    assert e.loc["width = 240.0", "cost_ratio"] == pytest.approx(1.5)    # CPU time: the timed packings' mean
+    assert e.loc["lead_in = 0.0", "dL0"] == pytest.approx(-10.0)
+    assert e.loc["seed-to-seed SD (3 packings)", "dL0"] == pytest.approx(2.0)
+    assert e.loc["seed-to-seed SD (3 packings)", "dL1"] == 0.0
