@@ -6,8 +6,10 @@ against the finest case and against the field mean (seed 001 Table 3).
     ./holes bench economies           ->  results/bench/economies.csv and .png
 
 
-Error of a case: for each of L0, L1, L2 and h1 the difference from the reference (mm), and their mean
-relative size |m - ref| / ref (the `err_*_pct` columns), which the Pareto plot shows against wall time.
+Error of a case: for each of L0, L1, L2 and h1 the difference from the reference (mm), and their mean size
+relative to the field's mean of each metric, mean |m - ref| / field (the `err_*_pct` columns), which the
+Pareto plot shows against wall time. The field mean is the scale for both references, since a simulated h1
+can be near zero and would make a relative error meaningless.
 """
 from __future__ import annotations
 
@@ -45,7 +47,7 @@ def with_numerics(table: pd.DataFrame) -> pd.DataFrame:
 
 def errors(table: pd.DataFrame, field: pd.DataFrame) -> pd.DataFrame:
     """Each case's error against the finest case (the smallest grains at the base time step and modulus)
-    and against the field mean of its soil."""
+    and against the field mean of its soil, both in units of the field mean."""
     t = with_numerics(table)
     base = t[(t.dt_safety == t.dt_safety.mode()[0]) & (t.young_pa == t.young_pa.mode()[0])]
     finest = base.loc[base.radius_mm.idxmin()]
@@ -54,9 +56,9 @@ def errors(table: pd.DataFrame, field: pd.DataFrame) -> pd.DataFrame:
     for m in METRICS:
         t[f"{m}_vs_finest"] = t[m] - finest[m]
         t[f"{m}_vs_field"] = t[m] - t["soil"].map(means[m])
-    t["err_finest_pct"] = 100 * np.mean([np.abs(t[f"{m}_vs_finest"]) / abs(finest[m]) for m in METRICS], axis=0)
-    t["err_field_pct"] = 100 * np.mean([np.abs(t[f"{m}_vs_field"]) / t["soil"].map(means[m]).abs()
-                                        for m in METRICS], axis=0)
+    scale = {m: t["soil"].map(means[m]).abs() for m in METRICS}
+    for ref in ("finest", "field"):
+        t[f"err_{ref}_pct"] = 100 * np.mean([np.abs(t[f"{m}_vs_{ref}"]) / scale[m] for m in METRICS], axis=0)
     t["particle_steps_per_s"] = t.particles * t.steps / t.wall_s
     t["machine"] = machine()
     return t
@@ -158,18 +160,19 @@ def plot_economies(e: pd.DataFrame, path: Path, note: str):
     plt.close(fig)
 
 
-def study_table(study_path: Path, workers: int, threads: int, runs_dir, bed_dir, out: Path):
-    """Run a study's cases (finished ones are reused) into out/cases; its table, or None if no case finished."""
+def study_table(study_path: Path, workers: int, threads: int, runs_dir, bed_dir, out: Path, no_run: bool):
+    """Run a study's cases (finished ones are reused; none with no_run) into out/cases; its table, or None if
+    no case finished."""
     from analysis import study
-    code = study.run(study_path, workers, threads, None, runs_dir, bed_dir, out / "cases")
+    code = study.run(study_path, workers, threads, None, runs_dir, bed_dir, out / "cases", no_run)
     path = out / "cases" / f"{study.load_study(study_path)[0]['name']}.csv"
     return code, (read_table(path) if path.exists() else None)
 
 
-def run_economies(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None) -> int:
+def run_economies(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_run=False) -> int:
     """Run the economies study, then write results/bench/economies.csv and .png."""
     out = Path(out or ROOT / "results/bench")
-    code, table = study_table(ECONOMIES, workers, threads, runs_dir, bed_dir, out)
+    code, table = study_table(ECONOMIES, workers, threads, runs_dir, bed_dir, out, no_run)
     if table is None:
         return 1
     t = economies(table)
@@ -181,12 +184,12 @@ def run_economies(workers: int, threads: int, runs_dir=None, bed_dir=None, out=N
     return code
 
 
-def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, study_path=STUDY) -> int:
+def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_run=False, study_path=STUDY) -> int:
     """Run the study's cases (finished ones are reused), then write the speed-vs-error table and plot."""
     from analysis import study
     from analysis.compare import field_table
     out = Path(out or ROOT / "results/bench")
-    code, table = study_table(study_path, workers, threads, runs_dir, bed_dir, out)
+    code, table = study_table(study_path, workers, threads, runs_dir, bed_dir, out, no_run)
     if table is None:
         return 1
     name = study.load_study(study_path)[0]["name"]

@@ -150,7 +150,7 @@ def cmd_bench(args) -> int:
     if args.what in ("speed-vs-error", "economies"):
         from analysis import bench
         go = bench.run if args.what == "speed-vs-error" else bench.run_economies
-        return go(workers(args), args.threads, args.runs_dir, args.bed_dir, args.out)
+        return go(workers(args), args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run)
     if args.what == "runs":
         rows = []
         for path in sorted((ROOT / "results/runs").glob("*/summary.json")):
@@ -264,6 +264,8 @@ def main(argv=None) -> int:
     p.add_argument("--workers", type=int,
                    help="speed-vs-error, economies: cases at a time (default: cores / threads)")
     scene_batch_options(p, 1, "speed-vs-error, economies: table folder (default results/bench)")
+    p.add_argument("--no-run", action="store_true",
+                   help="speed-vs-error, economies: tabulate the finished cases only; run nothing")
     p.set_defaults(func=cmd_bench)
     args, rest = parser.parse_known_args(argv)
     if rest and args.command not in ("bed", "cone", "run", "duckbeak"):

@@ -128,6 +128,8 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
             and not k.endswith("_sd") and not k.startswith("l_") and table[k].nunique() > 1]
     x = keys[0] if keys else "run"
     group = keys[1] if len(keys) > 1 else None
+    if table[x].isna().any():            # cases that vary different fields one at a time: one point per run
+        x, group = "run", None
     theory = theory_lines(x, table[x]) if x in table else {}
     fig, axes = plt.subplots(2, 3, figsize=(13, 7))
     for ax, m in zip(axes.flat, (*METRICS, "pass_rate")):
@@ -140,6 +142,8 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
             ax.errorbar(part[x], part[m], yerr=None if err is None else err.fillna(0.0), marker="o", capsize=3,
                         label=f"{group} = {label}" if group else None)
         ax.set_xlabel(x)
+        if x == "run":
+            ax.tick_params(axis="x", labelrotation=30, labelsize=6)
         ax.set_ylabel(m + (" (stated criteria)" if m == "pass_rate" else ", mm"))
         ax.grid(alpha=0.3)
     if group or theory:
@@ -183,9 +187,9 @@ def plot_length_at_depth(table: pd.DataFrame, path: Path, note: str):
 
 
 def run(paths, workers: int = 1, threads: int = 2, scheduler: str | None = None, runs_dir=None, bed_dir=None,
-        out=None) -> int:
+        out=None, no_run: bool = False) -> int:
     """Run one or more studies as one batch (a case two studies share, such as the baseline, runs once), each
-    study's table rewritten as its cases finish."""
+    study's table rewritten as its cases finish; with no_run, only tabulate the cases that finished."""
     from scripts.bed import BED_DIR
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
     studies = [(path, *load_study(path)) for path in paths]
@@ -205,8 +209,9 @@ def run(paths, workers: int = 1, threads: int = 2, scheduler: str | None = None,
         return write_table(head["name"], head, cases, rows[head["name"]], runs_dir, out, f"./holes study {path}")
 
     label = "study " + "+".join(names)
-    failures = run_all(list(batch.values()), workers, threads, runs_dir, bed_dir, scheduler=scheduler, label=label,
-                       on_done=lambda c, s: [write(*m) for m in members[c["id"]]])
+    failures = [] if no_run else run_all(list(batch.values()), workers, threads, runs_dir, bed_dir,
+                                         scheduler=scheduler, label=label,
+                                         on_done=lambda c, s: [write(*m) for m in members[c["id"]]])
     n_tables = 0
     for path, head, cases in studies:
         table = write(path, head, cases)
