@@ -75,11 +75,23 @@ def label(r) -> str:
     return f"r {r.radius_mm:g} mm, dt {r.dt_safety:g}, E {r.young_pa / 1e6:g} MPa"
 
 
-def plot(t: pd.DataFrame, path: Path, note: str):
+def pyplot():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(1, 2, figsize=(13, 5))
+    return plt
+
+
+def save(fig, path: Path, title: str):
+    fig.suptitle(title, fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    pyplot().close(fig)
+
+
+def plot(t: pd.DataFrame, path: Path, note: str):
+    fig, axes = pyplot().subplots(1, 2, figsize=(13, 5))
     for ax, err, what in zip(axes, ("err_finest_pct", "err_field_pct"), ("the finest case", "the field mean")):
         front = pareto(t, err)
         ax.scatter(t.wall_s, t[err], c=np.where(front, "tab:red", "tab:blue"))
@@ -92,11 +104,7 @@ def plot(t: pd.DataFrame, path: Path, note: str):
         ax.set_ylabel(f"mean |error| of L0, L1, L2, h1 against {what}, %")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle(f"speed against error, one clay hole\n{note}", fontsize=8)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, f"speed against error, one clay hole\n{note}")
 
 
 def economies(table: pd.DataFrame) -> pd.DataFrame:
@@ -131,9 +139,7 @@ def economies(table: pd.DataFrame) -> pd.DataFrame:
 
 def plot_economies(e: pd.DataFrame, path: Path, note: str):
     """Each economy's change of L0, L1, L2, h1 beside the packings' scatter (± 1 SD, grey), and its cost."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     cases, sd = e.iloc[1:-1], e.iloc[-1]
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 4.8), gridspec_kw={"width_ratios": [2, 1]})
     x = np.arange(len(METRICS))
@@ -153,11 +159,7 @@ def plot_economies(e: pd.DataFrame, path: Path, note: str):
     bx.set_yticks(y, cases.change)
     bx.set_xlabel("cost / reference's cost")
     bx.legend(fontsize=8)
-    fig.suptitle(f"economies, one clay hole at r = 8 mm (the missing bar: no hole found)\n{note}", fontsize=8)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, f"economies, one clay hole at r = 8 mm (the missing bar: no hole found)\n{note}")
 
 
 def study_table(study_path: Path, workers: int, threads: int, runs_dir, bed_dir, out: Path, no_run: bool):
