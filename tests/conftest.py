@@ -23,18 +23,7 @@ def other_disk():
 
 @pytest.fixture(scope="session")
 def scene_dirs(tmp_path_factory):
-    """Runs and beds folders shared by the scene tests of one process: a run with the same parameters is made once and
+    """Runs and beds folders shared by the scene tests: a run with the same parameters is made once and
     reused (scripts/disk.py skips a run whose folder has a summary)."""
     root = tmp_path_factory.mktemp("scenes")
     return root / "runs", root / "beds"
-
-
-# `./holes test` runs on pytest-xdist with --dist loadgroup: each file is one group, so a file's scenes (module
-# and session fixtures) are made once, in one process. test_compare joins test_disk's group to reuse its clay run.
-SAME_PROCESS = {"test_compare.py": "test_disk.py"}
-
-
-def pytest_collection_modifyitems(items):
-    for item in items:
-        name = item.path.name
-        item.add_marker(pytest.mark.xdist_group(SAME_PROCESS.get(name, name)))
