@@ -5,7 +5,6 @@ against the finest case and against the field mean (seed 001 Table 3).
     ./holes bench speed-vs-error      ->  results/bench/speed_vs_error.csv and .png
     ./holes bench economies           ->  results/bench/economies.csv and .png
 
-
 Error of a case: for each of L0, L1, L2 and h1 the difference from the reference (mm), and their mean size
 relative to the field's mean of each metric, mean |m - ref| / field (the `err_*_pct` columns), which the
 Pareto plot shows against wall time. The field mean is the scale for both references, since a simulated h1
@@ -163,18 +162,19 @@ def plot_economies(e: pd.DataFrame, path: Path, note: str):
 
 
 def study_table(study_path: Path, workers: int, threads: int, runs_dir, bed_dir, out: Path, no_run: bool):
-    """Run a study's cases (finished ones are reused; none with no_run) into out/cases; its table, or None if
-    no case finished."""
+    """Run a study's cases (finished ones are reused; none with no_run) into out/cases: the exit code, the
+    study's name and its table (None if no case finished)."""
     from analysis import study
     code = study.run(study_path, workers, threads, None, runs_dir, bed_dir, out / "cases", no_run)
-    path = out / "cases" / f"{study.load_study(study_path)[0]['name']}.csv"
-    return code, (read_table(path) if path.exists() else None)
+    name = study.load_study(study_path)[0]["name"]
+    path = out / "cases" / f"{name}.csv"
+    return code, name, (read_table(path) if path.exists() else None)
 
 
 def run_economies(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_run=False) -> int:
     """Run the economies study, then write results/bench/economies.csv and .png."""
     out = Path(out or ROOT / "results/bench")
-    code, table = study_table(ECONOMIES, workers, threads, runs_dir, bed_dir, out, no_run)
+    code, _, table = study_table(ECONOMIES, workers, threads, runs_dir, bed_dir, out, no_run)
     if table is None:
         return 1
     t = economies(table)
@@ -188,13 +188,11 @@ def run_economies(workers: int, threads: int, runs_dir=None, bed_dir=None, out=N
 
 def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_run=False, study_path=STUDY) -> int:
     """Run the study's cases (finished ones are reused), then write the speed-vs-error table and plot."""
-    from analysis import study
     from analysis.compare import field_table
     out = Path(out or ROOT / "results/bench")
-    code, table = study_table(study_path, workers, threads, runs_dir, bed_dir, out, no_run)
+    code, name, table = study_table(study_path, workers, threads, runs_dir, bed_dir, out, no_run)
     if table is None:
         return 1
-    name = study.load_study(study_path)[0]["name"]
     t = errors(table, field_table())
     note = stamp("./holes bench speed-vs-error")
     cols = ["run", "soil", "resolution", "radius_mm", "dt_safety", "young_pa", "particles", "steps", "wall_s",

@@ -83,7 +83,8 @@ def case_row(case: Case, runs_dir: Path, criteria: dict) -> dict:
     row.update({f"{m}_sd": float(holes[m].std(ddof=1)) if len(holes) > 1 else np.nan for m in METRICS})
     row.update({c: float(holes[c].mean()) for c in holes.columns if c.startswith("l_")})    # l_H, Table 1
     row.update({"pass_rate": float(passed.mean()), "passed": int(passed.sum()),
-                "wall_s": summary["wall_s"], "cpu_s": summary.get("cpu_s", np.nan), "particles": summary["particles"], "steps": summary["steps"],
+                "wall_s": summary["wall_s"], "cpu_s": summary.get("cpu_s", np.nan),
+                "particles": summary["particles"], "steps": summary["steps"],
                 "threads": summary["threads"], "slip_out": summary.get("slip_out")})
     return row
 
