@@ -6,8 +6,8 @@ check independent of the interior porosity the grain density is set from.
 
 Every case is one cone scene (scripts/cone.py, its own YADE process); cases sharing a bed run one after another,
 others `workers` at a time. A case already in results/cone/ (same bed, cone, speed, and a cohesion within 0.1 %:
-the config keeps 4 significant digits of the calibrated value) is reused. results/calibration/cone_checks.csv is
-rewritten as each case finishes, and cone_checks.png drawn at the end.
+the config keeps 4 significant digits of the calibrated value) is reused. results/calibration/<config's stem>.csv is
+rewritten as each case finishes, and <stem>.png drawn at the end.
 """
 from __future__ import annotations
 
@@ -106,12 +106,14 @@ def summarise(table: pd.DataFrame) -> list[str]:
         lines.append(f"{soil}: cone index {g.cone_index_kpa.mean():.0f} ± {sd:.0f} kPa over {len(g)} seeds "
                      f"(Table 2 {g.target_kpa.iloc[0]:.0f}); core density {g.dry_density_core.mean():.0f} kg/m³ "
                      f"({g.core_error_percent.mean():+.1f} %)")
-    for _, w in table[table.check == "width"].iterrows():
-        ref = rep[(rep.soil == w.soil) & (rep.seed == w.seed) & (rep.resolution == w.resolution)]
-        if len(ref):
-            change = 100 * (w.cone_index_kpa / ref.cone_index_kpa.iloc[0] - 1)
-            lines.append(f"{w.soil}: bed {w.size_mm} mm gives {w.cone_index_kpa:.0f} kPa, {change:+.1f} % against "
-                         f"{ref.size_mm.iloc[0]} mm (criterion < 5 %)")
+    for key, g in table[table.check.isin(["replicate", "width"])].groupby(["soil", "seed", "resolution",
+                                                                          "cone_diameter_mm"], sort=False):
+        if (g.check == "width").any():            # each bed against the next narrower one: the width series
+            g = g.assign(width=[float(s.split("x")[1]) for s in g.size_mm]).sort_values("width")
+            for (_, a), (_, b) in zip(g.iloc[:-1].iterrows(), g.iloc[1:].iterrows()):
+                change = 100 * (b.cone_index_kpa / a.cone_index_kpa - 1)
+                lines.append(f"{key[0]} ({b.resolution}, seed {key[1]}): bed {b.size_mm} mm gives "
+                             f"{b.cone_index_kpa:.0f} kPa, {change:+.1f} % against {a.size_mm} mm (criterion < 5 %)")
     ratio = table[table.check == "ratio"]
     if len(ratio):
         lines.append("ratio: " + ", ".join(f"{r.cone_to_particle:.2f} -> {r.cone_index_kpa:.0f} kPa" for r in
@@ -157,14 +159,15 @@ def plot(table: pd.DataFrame, path):
     b.set_xticks(range(table.soil.nunique()), list(dict.fromkeys(table.soil)))
     b.set_ylabel("cone index over 0-150 mm, kPa (grey: Table 2 ± 5 %)")
     b.legend(fontsize=8)
-    for w in table[table.check == "width"].itertuples():     # the width check's curves beside its reference's
-        ref = table[(table.check == "replicate") & (table.soil == w.soil) & (table.seed == w.seed)
-                    & (table.resolution == w.resolution)]
-        for r, style in [(x, "-") for x in ref.itertuples()] + [(w, "--")]:
-            if (t := curve(r)) is not None:
-                t = t[t.base_depth_m >= 0]
-                c.plot(1000 * t.base_depth_m, t.resistance_pa.rolling(25, center=True).mean() / 1000, style,
-                       label=f"{r.soil}, bed {r.size_mm} mm: {r.cone_index_kpa:.0f} kPa")
+    for _, g in table[table.check.isin(["replicate", "width"])].groupby(["soil", "seed", "resolution",
+                                                                        "cone_diameter_mm"], sort=False):
+        if (g.check == "width").any():          # the width series' curves: dashed for the wider beds
+            for r in g.itertuples():
+                if (t := curve(r)) is not None:
+                    t = t[t.base_depth_m >= 0]
+                    c.plot(1000 * t.base_depth_m, t.resistance_pa.rolling(25, center=True).mean() / 1000,
+                           "-" if r.check == "replicate" else "--",
+                           label=f"{r.soil}, r = {r.radius_mm:g} mm, bed {r.size_mm} mm: {r.cone_index_kpa:.0f} kPa")
     c.set_xlabel("cone base depth, mm (index: mean over 0-150)")
     c.set_ylabel("resistance, kPa (running mean of 25 samples)")
     c.legend(fontsize=8)
@@ -175,7 +178,8 @@ def plot(table: pd.DataFrame, path):
 
 
 def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, out=CAL) -> pd.DataFrame:
-    cases = load_cases(config)
+    """Run the config's unfinished cases; results/calibration/<config's stem>.csv and .png."""
+    cases, stem = load_cases(config), Path(config).stem
     note = stamp(f"./holes cone-checks {config} --workers {workers} --threads {threads}")
     done = {i: s for i, c in enumerate(cases) if (s := stored(c)) is not None}
     rows = {i: row(cases[i], s) for i, s in done.items()}
@@ -187,7 +191,7 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
         f"({workers} at a time, {threads} thread(s) each)")
 
     def write():
-        atomic_csv(pd.DataFrame([rows[i] for i in sorted(rows)]), out / "cone_checks.csv", note)
+        atomic_csv(pd.DataFrame([rows[i] for i in sorted(rows)]), out / f"{stem}.csv", note)
 
     failures, lock = [], threading.Lock()
 
@@ -215,7 +219,7 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
             fut.result()
     write()
     table = pd.DataFrame([rows[i] for i in sorted(rows)])
-    plot(table, out / "cone_checks.png")
+    plot(table, out / f"{stem}.png")
     for line in summarise(table):
         print(line)
     if failures:
