@@ -98,16 +98,15 @@ def row(case: dict, s: dict) -> dict:
 
 
 def summarise(table: pd.DataFrame) -> list[str]:
-    """The checks' verdicts in words: replicate scatter, the width change, the ratio trend."""
+    """The checks' verdicts in words: the scatter over seeds per bed, each width step, the ratio trend."""
     lines = []
-    rep = table[table.check == "replicate"]
-    for soil, g in rep.groupby("soil", sort=False):
+    beds = table[table.check.isin(["replicate", "width"])]
+    for (soil, res, size), g in beds.groupby(["soil", "resolution", "size_mm"], sort=False):
         sd = g.cone_index_kpa.std(ddof=1) if len(g) > 1 else float("nan")
-        lines.append(f"{soil}: cone index {g.cone_index_kpa.mean():.0f} ± {sd:.0f} kPa over {len(g)} seeds "
-                     f"(Table 2 {g.target_kpa.iloc[0]:.0f}); core density {g.dry_density_core.mean():.0f} kg/m³ "
-                     f"({g.core_error_percent.mean():+.1f} %)")
-    for key, g in table[table.check.isin(["replicate", "width"])].groupby(["soil", "seed", "resolution",
-                                                                          "cone_diameter_mm"], sort=False):
+        lines.append(f"{soil} ({res}, bed {size} mm): cone index {g.cone_index_kpa.mean():.0f} ± {sd:.0f} kPa over "
+                     f"{len(g)} seed(s) (Table 2 {g.target_kpa.iloc[0]:.0f}); core density "
+                     f"{g.dry_density_core.mean():.0f} kg/m³ ({g.core_error_percent.mean():+.1f} %)")
+    for key, g in beds.groupby(["soil", "seed", "resolution", "cone_diameter_mm"], sort=False):
         if (g.check == "width").any():            # each bed against the next narrower one: the width series
             g = g.assign(width=[float(s.split("x")[1]) for s in g.size_mm]).sort_values("width")
             for (_, a), (_, b) in zip(g.iloc[:-1].iterrows(), g.iloc[1:].iterrows()):
@@ -132,10 +131,10 @@ def plot(table: pd.DataFrame, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, (a, b, c) = plt.subplots(1, 3, figsize=(16, 4.5))
+    fig, ((a, b), (c, d)) = plt.subplots(2, 2, figsize=(13, 9))
     clay = table[table.soil == "clay"]
     ref = clay[(clay.check == "replicate") & (clay.seed == 1) & (clay.resolution == "quick")]
-    if len(ref):                    # the two sweeps through the calibration case: grain size, then cone size
+    if len(ref) and (clay.check == "ratio").any():   # the two sweeps through the calibration case: grain, cone size
         ref = ref.iloc[0]
         pts = pd.concat([clay[clay.check == "ratio"], ref.to_frame().T])
         for label, same, marker in (("grain size varied (38.5 mm cone)", "cone_diameter_mm", "o"),
@@ -168,6 +167,16 @@ def plot(table: pd.DataFrame, path):
                     c.plot(1000 * t.base_depth_m, t.resistance_pa.rolling(25, center=True).mean() / 1000,
                            "-" if r.check == "replicate" else "--",
                            label=f"{r.soil}, r = {r.radius_mm:g} mm, bed {r.size_mm} mm: {r.cone_index_kpa:.0f} kPa")
+    beds = table[table.check.isin(["replicate", "width"])]
+    for (soil, res), g in beds.groupby(["soil", "resolution"], sort=False):   # cone index against bed width
+        g = g.assign(width=[float(s.split("x")[1]) for s in g.size_mm])
+        line, = d.plot(g.width, g.cone_index_kpa, "o", alpha=0.5)
+        mean = g.groupby("width").cone_index_kpa.mean()
+        d.plot(mean.index, mean.values, "-", color=line.get_color(),
+               label=f"{soil}, r = {g.radius_mm.iloc[0]:g} mm: seeds (points), mean (line)")
+    d.set_xlabel("bed width = length, mm (cone 38.5 mm)")
+    d.set_ylabel("cone index over 0-150 mm, kPa")
+    d.legend(fontsize=8)
     c.set_xlabel("cone base depth, mm (index: mean over 0-150)")
     c.set_ylabel("resistance, kPa (running mean of 25 samples)")
     c.legend(fontsize=8)
