@@ -141,12 +141,13 @@ def plot(table: pd.DataFrame, path):
                                     ("cone size varied (r = 5 mm)", "radius_mm", "s")):
             p = pts[pts[same] == ref[same]].sort_values("cone_to_particle")
             a.plot(p.cone_to_particle, p.cone_index_kpa, marker=marker, label=label)
-    if len(clay):
         t = clay.target_kpa.iloc[0]
         a.axhspan(0.95 * t, 1.05 * t, color="0.85", label="Table 2 ± 5 %")
-    a.set_xlabel("cone-to-particle diameter ratio")
-    a.set_ylabel("clay cone index over 0-150 mm, kPa")
-    a.legend(fontsize=8)
+        a.set_xlabel("cone-to-particle diameter ratio")
+        a.set_ylabel("clay cone index over 0-150 mm, kPa")
+        a.legend(fontsize=8)
+    else:
+        a.set_visible(False)
     for i, (soil, g) in enumerate(table.groupby("soil", sort=False)):
         t = g.target_kpa.iloc[0]
         b.add_patch(plt.Rectangle((i - 0.4, 0.95 * t), 0.8, 0.1 * t, color="0.85"))
@@ -154,7 +155,7 @@ def plot(table: pd.DataFrame, path):
         b.plot(np.full(len(rep), i - 0.1), rep.cone_index_kpa, "o", color="tab:blue",
                label="replicate beds (seeds)" if i == 0 else None)
         b.plot(np.full(len(wide), i + 0.1), wide.cone_index_kpa, "D", color="tab:red",
-               label="bed 1.5 × as wide" if i == 0 else None)
+               label="wider beds" if i == 0 else None)
     b.set_xticks(range(table.soil.nunique()), list(dict.fromkeys(table.soil)))
     b.set_ylabel("cone index over 0-150 mm, kPa (grey: Table 2 ± 5 %)")
     b.legend(fontsize=8)
