@@ -6,8 +6,8 @@ check independent of the interior porosity the grain density is set from.
 
 Every case is one cone scene (scripts/cone.py, its own YADE process); cases sharing a bed run one after another,
 others `workers` at a time. A case already in results/cone/ (same bed, cone, speed, and a cohesion within 0.1 %:
-the config keeps 4 significant digits of the calibrated value) is reused. results/calibration/cone_checks.csv is
-rewritten as each case finishes, and cone_checks.png drawn at the end.
+the config keeps 4 significant digits of the calibrated value) is reused. results/calibration/<config's stem>.csv is
+rewritten as each case finishes, and <stem>.png drawn at the end.
 """
 from __future__ import annotations
 
@@ -98,20 +98,21 @@ def row(case: dict, s: dict) -> dict:
 
 
 def summarise(table: pd.DataFrame) -> list[str]:
-    """The checks' verdicts in words: replicate scatter, the width change, the ratio trend."""
+    """The checks' verdicts in words: the scatter over seeds per bed, each width step, the ratio trend."""
     lines = []
-    rep = table[table.check == "replicate"]
-    for soil, g in rep.groupby("soil", sort=False):
+    beds = table[table.check.isin(["replicate", "width"])]
+    for (soil, res, size), g in beds.groupby(["soil", "resolution", "size_mm"], sort=False):
         sd = g.cone_index_kpa.std(ddof=1) if len(g) > 1 else float("nan")
-        lines.append(f"{soil}: cone index {g.cone_index_kpa.mean():.0f} ± {sd:.0f} kPa over {len(g)} seeds "
-                     f"(Table 2 {g.target_kpa.iloc[0]:.0f}); core density {g.dry_density_core.mean():.0f} kg/m³ "
-                     f"({g.core_error_percent.mean():+.1f} %)")
-    for _, w in table[table.check == "width"].iterrows():
-        ref = rep[(rep.soil == w.soil) & (rep.seed == w.seed) & (rep.resolution == w.resolution)]
-        if len(ref):
-            change = 100 * (w.cone_index_kpa / ref.cone_index_kpa.iloc[0] - 1)
-            lines.append(f"{w.soil}: bed {w.size_mm} mm gives {w.cone_index_kpa:.0f} kPa, {change:+.1f} % against "
-                         f"{ref.size_mm.iloc[0]} mm (criterion < 5 %)")
+        lines.append(f"{soil} ({res}, bed {size} mm): cone index {g.cone_index_kpa.mean():.0f} ± {sd:.0f} kPa over "
+                     f"{len(g)} seed(s) (Table 2 {g.target_kpa.iloc[0]:.0f}); core density "
+                     f"{g.dry_density_core.mean():.0f} kg/m³ ({g.core_error_percent.mean():+.1f} %)")
+    for key, g in beds.groupby(["soil", "seed", "resolution", "cone_diameter_mm"], sort=False):
+        if (g.check == "width").any():            # each bed against the next narrower one: the width series
+            g = g.assign(width=[float(s.split("x")[1]) for s in g.size_mm]).sort_values("width")
+            for (_, a), (_, b) in zip(g.iloc[:-1].iterrows(), g.iloc[1:].iterrows()):
+                change = 100 * (b.cone_index_kpa / a.cone_index_kpa - 1)
+                lines.append(f"{key[0]} ({b.resolution}, seed {key[1]}): bed {b.size_mm} mm gives "
+                             f"{b.cone_index_kpa:.0f} kPa, {change:+.1f} % against {a.size_mm} mm (criterion < 5 %)")
     ratio = table[table.check == "ratio"]
     if len(ratio):
         lines.append("ratio: " + ", ".join(f"{r.cone_to_particle:.2f} -> {r.cone_index_kpa:.0f} kPa" for r in
@@ -130,22 +131,23 @@ def plot(table: pd.DataFrame, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, (a, b, c) = plt.subplots(1, 3, figsize=(16, 4.5))
+    fig, ((a, b), (c, d)) = plt.subplots(2, 2, figsize=(13, 9))
     clay = table[table.soil == "clay"]
     ref = clay[(clay.check == "replicate") & (clay.seed == 1) & (clay.resolution == "quick")]
-    if len(ref):                    # the two sweeps through the calibration case: grain size, then cone size
+    if len(ref) and (clay.check == "ratio").any():   # the two sweeps through the calibration case: grain, cone size
         ref = ref.iloc[0]
         pts = pd.concat([clay[clay.check == "ratio"], ref.to_frame().T])
         for label, same, marker in (("grain size varied (38.5 mm cone)", "cone_diameter_mm", "o"),
                                     ("cone size varied (r = 5 mm)", "radius_mm", "s")):
             p = pts[pts[same] == ref[same]].sort_values("cone_to_particle")
             a.plot(p.cone_to_particle, p.cone_index_kpa, marker=marker, label=label)
-    if len(clay):
         t = clay.target_kpa.iloc[0]
         a.axhspan(0.95 * t, 1.05 * t, color="0.85", label="Table 2 ± 5 %")
-    a.set_xlabel("cone-to-particle diameter ratio")
-    a.set_ylabel("clay cone index over 0-150 mm, kPa")
-    a.legend(fontsize=8)
+        a.set_xlabel("cone-to-particle diameter ratio")
+        a.set_ylabel("clay cone index over 0-150 mm, kPa")
+        a.legend(fontsize=8)
+    else:
+        a.set_visible(False)
     for i, (soil, g) in enumerate(table.groupby("soil", sort=False)):
         t = g.target_kpa.iloc[0]
         b.add_patch(plt.Rectangle((i - 0.4, 0.95 * t), 0.8, 0.1 * t, color="0.85"))
@@ -153,18 +155,29 @@ def plot(table: pd.DataFrame, path):
         b.plot(np.full(len(rep), i - 0.1), rep.cone_index_kpa, "o", color="tab:blue",
                label="replicate beds (seeds)" if i == 0 else None)
         b.plot(np.full(len(wide), i + 0.1), wide.cone_index_kpa, "D", color="tab:red",
-               label="bed 1.5 × as wide" if i == 0 else None)
+               label="wider beds" if i == 0 else None)
     b.set_xticks(range(table.soil.nunique()), list(dict.fromkeys(table.soil)))
     b.set_ylabel("cone index over 0-150 mm, kPa (grey: Table 2 ± 5 %)")
     b.legend(fontsize=8)
-    for w in table[table.check == "width"].itertuples():     # the width check's curves beside its reference's
-        ref = table[(table.check == "replicate") & (table.soil == w.soil) & (table.seed == w.seed)
-                    & (table.resolution == w.resolution)]
-        for r, style in [(x, "-") for x in ref.itertuples()] + [(w, "--")]:
-            if (t := curve(r)) is not None:
-                t = t[t.base_depth_m >= 0]
-                c.plot(1000 * t.base_depth_m, t.resistance_pa.rolling(25, center=True).mean() / 1000, style,
-                       label=f"{r.soil}, bed {r.size_mm} mm: {r.cone_index_kpa:.0f} kPa")
+    for _, g in table[table.check.isin(["replicate", "width"])].groupby(["soil", "seed", "resolution",
+                                                                        "cone_diameter_mm"], sort=False):
+        if (g.check == "width").any():          # the width series' curves: dashed for the wider beds
+            for r in g.itertuples():
+                if (t := curve(r)) is not None:
+                    t = t[t.base_depth_m >= 0]
+                    c.plot(1000 * t.base_depth_m, t.resistance_pa.rolling(25, center=True).mean() / 1000,
+                           "-" if r.check == "replicate" else "--",
+                           label=f"{r.soil}, r = {r.radius_mm:g} mm, bed {r.size_mm} mm: {r.cone_index_kpa:.0f} kPa")
+    beds = table[table.check.isin(["replicate", "width"])]
+    for (soil, res), g in beds.groupby(["soil", "resolution"], sort=False):   # cone index against bed width
+        g = g.assign(width=[float(s.split("x")[1]) for s in g.size_mm])
+        line, = d.plot(g.width, g.cone_index_kpa, "o", alpha=0.5)
+        mean = g.groupby("width").cone_index_kpa.mean()
+        d.plot(mean.index, mean.values, "-", color=line.get_color(),
+               label=f"{soil}, r = {g.radius_mm.iloc[0]:g} mm: seeds (points), mean (line)")
+    d.set_xlabel("bed width = length, mm (cone 38.5 mm)")
+    d.set_ylabel("cone index over 0-150 mm, kPa")
+    d.legend(fontsize=8)
     c.set_xlabel("cone base depth, mm (index: mean over 0-150)")
     c.set_ylabel("resistance, kPa (running mean of 25 samples)")
     c.legend(fontsize=8)
@@ -175,7 +188,8 @@ def plot(table: pd.DataFrame, path):
 
 
 def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, out=CAL) -> pd.DataFrame:
-    cases = load_cases(config)
+    """Run the config's unfinished cases; results/calibration/<config's stem>.csv and .png."""
+    cases, stem = load_cases(config), Path(config).stem
     note = stamp(f"./holes cone-checks {config} --workers {workers} --threads {threads}")
     done = {i: s for i, c in enumerate(cases) if (s := stored(c)) is not None}
     rows = {i: row(cases[i], s) for i, s in done.items()}
@@ -187,7 +201,7 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
         f"({workers} at a time, {threads} thread(s) each)")
 
     def write():
-        atomic_csv(pd.DataFrame([rows[i] for i in sorted(rows)]), out / "cone_checks.csv", note)
+        atomic_csv(pd.DataFrame([rows[i] for i in sorted(rows)]), out / f"{stem}.csv", note)
 
     failures, lock = [], threading.Lock()
 
@@ -215,7 +229,7 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
             fut.result()
     write()
     table = pd.DataFrame([rows[i] for i in sorted(rows)])
-    plot(table, out / "cone_checks.png")
+    plot(table, out / f"{stem}.png")
     for line in summarise(table):
         print(line)
     if failures:

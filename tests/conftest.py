@@ -1,4 +1,5 @@
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -27,3 +28,15 @@ def scene_dirs(tmp_path_factory):
     reused (scripts/disk.py skips a run whose folder has a summary)."""
     root = tmp_path_factory.mktemp("scenes")
     return root / "runs", root / "beds"
+
+
+@pytest.fixture(scope="session")
+def side_scenes(scene_dirs):
+    """test_disk's one-thread free-rolling scenes (SIDE_SCENES), one after another on a background thread from
+    the first test that asks: test_compare asks, so they run on the core its one-thread clay scene leaves idle.
+    Name -> future of the finished process (a failed scene is the asking test's failure, not this fixture's)."""
+    from tests.test_disk import SIDE_SCENES, run_scene
+    pool = ThreadPoolExecutor(max_workers=1)
+    yield {name: pool.submit(run_scene, None, *args, dirs=scene_dirs, expect_ok=ok)
+           for name, (args, ok) in SIDE_SCENES.items()}
+    pool.shutdown(cancel_futures=True)

@@ -21,6 +21,18 @@ def run_scene(tmp, *args, expect_ok=True, dirs=None):
     return r
 
 
+# The one-thread scenes of the free-rolling tests (one thread makes a scene deterministic; on two threads the
+# contact order varies and the slip of this short, one-hole strip scatters by about ±0.04 from run to run).
+# conftest's side_scenes runs them in the background from the suite's first long scene on, on the core a
+# one-thread scene leaves idle.
+FREE = ["--soil", "clay", "--holes", "1", "--lead-in", "0", "--mode", "free", "--threads", "1"]
+SIDE_SCENES = {                                 # name: (arguments, whether the run must finish)
+    "low-resistance": ([*FREE, "--set", "normal_cohesion=0", "--set", "shear_cohesion=0"], True),
+    "light": ([*FREE, "--depth", "160", "--weight", "100"], True),
+    "heavy": ([*FREE, "--depth", "160", "--weight", "2000"], False),
+}
+
+
 @pytest.fixture(scope="module")
 def two_holes(scene_dirs):
     """The clay test strip: a lead-in hole and two measured ones (shared with test_compare, which reuses it)."""
@@ -58,26 +70,19 @@ def test_spacing_is_2piR_over_N_and_no_grain_is_lost(two_holes):
     assert abs((x[1] - x[0]) - expected) < 2 * rad.mean()
 
 
-def test_free_rolling_at_low_resistance_rolls_without_slip(tmp_path):
-    # One thread makes the scene deterministic: on two threads the contact order varies and the slip of
-    # this short, one-hole strip scatters by about ±0.04 from run to run.
-    r = run_scene(tmp_path, "--soil", "clay", "--holes", "1", "--lead-in", "0", "--mode", "free", "--threads", "1",
-                  "--set", "normal_cohesion=0", "--set", "shear_cohesion=0")
-    summary = json.loads(r.stdout.strip().splitlines()[-1])
+def test_free_rolling_at_low_resistance_rolls_without_slip(side_scenes):
+    summary = json.loads(side_scenes["low-resistance"].result().stdout.strip().splitlines()[-1])
     assert abs(summary["slip_out"]) < 0.1
 
 
-def test_weight_sets_the_penetration(tmp_path):
+def test_weight_sets_the_penetration(side_scenes):
     """Free rolling with sinking under W (deeper strip, one hole): a light disk rides up on its punches, so
     its tip goes less deep than the prescribed 70 mm; a heavy one sinks until its tips reach the strip's floor,
     and the run stops saying so instead of writing a hole."""
-    light = run_scene(tmp_path, "--soil", "clay", "--holes", "1", "--lead-in", "0", "--mode", "free", "--threads", "1",
-                      "--depth", "160", "--weight", "100")
-    summary = json.loads(light.stdout.strip().splitlines()[-1])
+    summary = json.loads(side_scenes["light"].result().stdout.strip().splitlines()[-1])
     assert 5.0 < summary["tip_min_depth_mm"][0] < 60.0
     assert summary["axis_sink_mm"]["min"] < -10.0                  # the axis rose above the prescribed height
-    heavy = run_scene(tmp_path, "--soil", "clay", "--holes", "1", "--lead-in", "0", "--mode", "free", "--threads", "1",
-                      "--depth", "160", "--weight", "2000", expect_ok=False)
+    heavy = side_scenes["heavy"].result()
     assert heavy.returncode == 3 and "sank" in heavy.stderr and "floor" in heavy.stderr
 
 
