@@ -139,7 +139,8 @@ def cmd_calibration_report(args) -> int:
 
 def cmd_bench(args) -> int:
     """`bench beds`: every bed's own measured settling cost (from its metadata) with the machine;
-    `bench runs`: every finished disk run's cost, and the wall time per 200 mm of travel (one hole);
+    `bench runs`: every finished disk run's cost (in --runs-dir), and the wall time per 200 mm of travel (one
+    hole); duck-beak runs, which have no travel, are left out;
     `bench speed-vs-error`, `bench economies`: analysis/bench.py; `bench peer`: scripts/peer.py (LIGGGHTS
     beside YADE)."""
     import json
@@ -153,8 +154,10 @@ def cmd_bench(args) -> int:
         return go(workers(args), args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run)
     if args.what == "runs":
         rows = []
-        for path in sorted((ROOT / "results/runs").glob("*/summary.json")):
+        for path in sorted(Path(args.runs_dir or ROOT / "results/runs").glob("*/summary.json")):
             m = json.loads(path.read_text())
+            if "travel_mm" not in m:                # a duck-beak run
+                continue
             rows.append({"run": m["id"], "soil": m["soil"], "preset": m["preset"], "mode": m["mode"],
                          "particles": m["particles"], "steps": m["steps"], "dt_s": m["dt"],
                          "travel_mm": round(m["travel_mm"]), "wall_s": round(m["wall_s"]), "threads": m["threads"],
