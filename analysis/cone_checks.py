@@ -97,18 +97,27 @@ def row(case: dict, s: dict) -> dict:
             "bed_settle_s": round(meta["wall_s"]), "threads": s["threads"], "bed": case["bed"]}
 
 
+def width_beds(table: pd.DataFrame) -> pd.DataFrame:
+    """The replicate and width rows, with each bed's width in mm (size_mm is length x width x depth)."""
+    beds = table[table.check.isin(["replicate", "width"])]
+    return beds.assign(width=[float(s.split("x")[1]) for s in beds.size_mm])
+
+
+SERIES = ["soil", "seed", "resolution", "cone_diameter_mm"]      # one width series: beds differing only in size
+
+
 def summarise(table: pd.DataFrame) -> list[str]:
     """The checks' verdicts in words: the scatter over seeds per bed, each width step, the ratio trend."""
     lines = []
-    beds = table[table.check.isin(["replicate", "width"])]
+    beds = width_beds(table)
     for (soil, res, size), g in beds.groupby(["soil", "resolution", "size_mm"], sort=False):
         sd = g.cone_index_kpa.std(ddof=1) if len(g) > 1 else float("nan")
         lines.append(f"{soil} ({res}, bed {size} mm): cone index {g.cone_index_kpa.mean():.0f} ± {sd:.0f} kPa over "
                      f"{len(g)} seed(s) (Table 2 {g.target_kpa.iloc[0]:.0f}); core density "
                      f"{g.dry_density_core.mean():.0f} kg/m³ ({g.core_error_percent.mean():+.1f} %)")
-    for key, g in beds.groupby(["soil", "seed", "resolution", "cone_diameter_mm"], sort=False):
+    for key, g in beds.groupby(SERIES, sort=False):
         if (g.check == "width").any():            # each bed against the next narrower one: the width series
-            g = g.assign(width=[float(s.split("x")[1]) for s in g.size_mm]).sort_values("width")
+            g = g.sort_values("width")
             for (_, a), (_, b) in zip(g.iloc[:-1].iterrows(), g.iloc[1:].iterrows()):
                 change = 100 * (b.cone_index_kpa / a.cone_index_kpa - 1)
                 lines.append(f"{key[0]} ({b.resolution}, seed {key[1]}): bed {b.size_mm} mm gives "
@@ -159,8 +168,8 @@ def plot(table: pd.DataFrame, path):
     b.set_xticks(range(table.soil.nunique()), list(dict.fromkeys(table.soil)))
     b.set_ylabel("cone index over 0-150 mm, kPa (grey: Table 2 ± 5 %)")
     b.legend(fontsize=8)
-    for _, g in table[table.check.isin(["replicate", "width"])].groupby(["soil", "seed", "resolution",
-                                                                        "cone_diameter_mm"], sort=False):
+    beds = width_beds(table)
+    for _, g in beds.groupby(SERIES, sort=False):
         if (g.check == "width").any():          # the width series' curves: dashed for the wider beds
             for r in g.itertuples():
                 if (t := curve(r)) is not None:
@@ -168,9 +177,7 @@ def plot(table: pd.DataFrame, path):
                     c.plot(1000 * t.base_depth_m, t.resistance_pa.rolling(25, center=True).mean() / 1000,
                            "-" if r.check == "replicate" else "--",
                            label=f"{r.soil}, r = {r.radius_mm:g} mm, bed {r.size_mm} mm: {r.cone_index_kpa:.0f} kPa")
-    beds = table[table.check.isin(["replicate", "width"])]
     for (soil, res), g in beds.groupby(["soil", "resolution"], sort=False):   # cone index against bed width
-        g = g.assign(width=[float(s.split("x")[1]) for s in g.size_mm])
         line, = d.plot(g.width, g.cone_index_kpa, "o", alpha=0.5)
         mean = g.groupby("width").cone_index_kpa.mean()
         d.plot(mean.index, mean.values, "-", color=line.get_color(),
