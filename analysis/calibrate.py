@@ -70,12 +70,20 @@ def cone_result_name(bed: str, cone_scale: float, speed: float, cohesion: float)
 
 
 def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesion: float, seed: int = 1,
-               speed: float = 0.5, threads: int = 2, extra=(), tag: str = "") -> dict:
+               speed: float = 0.5, threads: int = 2, lateral: str = "walls", tag: str = "") -> dict:
     """One cone scene in its own YADE process; its progress lines are echoed (prefixed with `tag`) as it runs.
-    Returns its summary."""
+    Returns its summary; a run of the same bed, cone, speed and cohesion already in results/cone/ is reused."""
+    from analysis.config import load_resolution
+    from scripts.bed import bed_key, check_size
+    bed = bed_key(load_soil(soil), load_resolution(resolution), check_size([float(v) / 1000 for v in size.split(",")]),
+                  seed, lateral)
+    done = ROOT / "results/cone" / f"{cone_result_name(bed, cone_scale, speed, cohesion)}.json"
+    if done.exists():
+        say(f"{tag}{' ' if tag else ''}reused {done.name}")
+        return json.loads(done.read_text())
     cmd = [sys.executable, str(ROOT / "scripts/cone.py"), "--soil", soil, "--resolution", resolution, "--size", size,
            "--cone-scale", str(cone_scale), "--cohesion", str(cohesion), "--seed", str(seed), "--speed", str(speed),
-           "--threads", str(threads), *extra]
+           "--threads", str(threads), "--lateral", lateral]
     tail = []
 
     def on_line(line):
@@ -100,30 +108,40 @@ def write_back(soil: str, keys, value: float):
     load_soil(soil)
 
 
-def run(soil: str, resolution: str, size: str, cone_scale: float, lo: float, hi: float, seed: int = 1,
-        speed: float = 0.5, threads: int = 2) -> float:
+def run(soil: str, resolution: str, size: str, cone_scale: float, lo: float, hi: float, seeds=(1,),
+        speed: float = 0.5, threads: int = 1, lateral: str = "walls", workers: int = 2) -> float:
+    """Fit the bond strength so that the cone index, averaged over the packing `seeds` (one bed and cone scene
+    each, `workers` at a time), is within TOLERANCE of Table 2. Every seed's run is a row of
+    results/calibration/<soil>.csv, with its iteration's mean and that mean's error."""
+    from concurrent.futures import ThreadPoolExecutor
     soil_cfg = load_soil(soil)
     target = soil_cfg.cone_index
     out = ROOT / "results/calibration" / f"{soil}.csv"
     done = read_table(out) if out.exists() else pd.DataFrame()
     rows = [done] if len(done) else []
     note = stamp(f"./holes calibrate --soil {soil} --resolution {resolution} --size {size} --cone-scale {cone_scale:g} "
-                 f"--speed {speed:g}")
+                 f"--speed {speed:g} --seeds {','.join(map(str, seeds))} --lateral {lateral}")
+    iteration = [int(done.iteration.max()) if len(done) else 0]
 
     def f(cohesion):
-        s = cone_index(soil, resolution, size, cone_scale, cohesion, seed, speed, threads)
-        rows.append(pd.DataFrame([{"iteration": sum(len(r) for r in rows) + 1, "normal_cohesion_pa": cohesion,
-                                   "cone_index_kpa": s["cone_index_pa"] / 1000, "target_kpa": target / 1000,
-                                   "error": s["cone_index_pa"] / target - 1, "bed": s["bed"],
-                                   "particles": s["particles"], "cone_scale": cone_scale, "cone_to_particle": round(s["cone_to_particle"], 2),
-                                   "speed_m_s": speed, "friction_deg": soil_cfg.friction_deg,
-                                   "rolling_friction": soil_cfg.rolling_friction, "wall_s": round(s["wall_s"], 1),
-                                   "threads": threads}]))
+        with ThreadPoolExecutor(max(1, workers)) as pool:
+            runs = list(pool.map(lambda seed: cone_index(soil, resolution, size, cone_scale, cohesion, seed, speed,
+                                                         threads, lateral, tag=f"[{soil} seed {seed}]"), seeds))
+        mean = sum(s["cone_index_pa"] for s in runs) / len(runs)
+        iteration[0] += 1
+        rows.append(pd.DataFrame([{"iteration": iteration[0], "normal_cohesion_pa": cohesion, "seed": seed,
+                                   "cone_index_kpa": s["cone_index_pa"] / 1000, "mean_kpa": mean / 1000,
+                                   "target_kpa": target / 1000, "error": mean / target - 1, "bed": s["bed"],
+                                   "lateral": lateral, "particles": s["particles"], "cone_scale": cone_scale,
+                                   "cone_to_particle": round(s["cone_to_particle"], 2), "speed_m_s": speed,
+                                   "friction_deg": soil_cfg.friction_deg, "rolling_friction": soil_cfg.rolling_friction,
+                                   "wall_s": round(s["wall_s"], 1), "threads": threads}
+                                  for seed, s in zip(seeds, runs)]))
         atomic_csv(pd.concat(rows, ignore_index=True), out, note)          # every iteration, as it finishes
-        return s["cone_index_pa"]
+        return mean
 
     x, y, _ = bracket_search(f, target, lo, hi, log=lambda m: print(m, file=sys.stderr, flush=True))
     write_back(soil, COHESION_KEYS, x)
-    print(f"calibrate {soil}: normal_cohesion = shear_cohesion = {x:.4g} Pa gives {y / 1000:.1f} kPa "
-          f"(target {target / 1000:.0f} kPa, {100 * (y / target - 1):+.1f} %)")
+    print(f"calibrate {soil}: normal_cohesion = shear_cohesion = {x:.4g} Pa gives {y / 1000:.1f} kPa over seeds "
+          f"{', '.join(map(str, seeds))} (target {target / 1000:.0f} kPa, {100 * (y / target - 1):+.1f} %)")
     return x

@@ -1,5 +1,6 @@
 """The calibration summary: per soil the accepted cohesion, cone index and bed density against seed 001
-Table 2, and the resistance-vs-depth plot of the accepted cone runs (results/calibration/)."""
+Table 2, and the resistance-vs-depth plot of the accepted cone runs, averaged over their packing seeds
+(results/calibration/)."""
 from __future__ import annotations
 
 import json
@@ -14,14 +15,16 @@ from analysis.io import atomic_csv, read_table, stamp
 CAL = ROOT / "results/calibration"
 
 
-def accepted(soil: str) -> pd.Series | None:
-    """The last iteration within the tolerance, or None."""
+def accepted(soil: str) -> pd.DataFrame | None:
+    """The runs (one per packing seed) of the last iteration whose seed-mean is within the tolerance, or None.
+    A calibration on one seed has one row per iteration and no mean column."""
     path = CAL / f"{soil}.csv"
     if not path.exists():
         return None
     t = read_table(path)
+    t = t.assign(mean_kpa=t["mean_kpa"] if "mean_kpa" in t else t.cone_index_kpa)
     ok = t[t.error.abs() <= TOLERANCE]
-    return ok.iloc[-1] if len(ok) else None
+    return t[t.iteration == ok.iteration.iloc[-1]] if len(ok) else None
 
 
 def core_density(bed: str, grain_density: float, moisture: float, diameter=0.0505, height=0.05, top=0.025,
@@ -49,40 +52,46 @@ def run(out=CAL) -> pd.DataFrame:
     rows = []
     fig, ax = plt.subplots(figsize=(6, 5))
     for soil, colour in zip(SOILS, ("tab:brown", "tab:olive", "tab:orange")):
-        a = accepted(soil)
-        if a is None:
+        runs = accepted(soil)
+        if runs is None:
             continue
-        meta = json.loads((ROOT / "results/beds" / f"{a.bed}.json").read_text())
-        stem = cone_result_name(a.bed, a.cone_scale, a.speed_m_s, a.normal_cohesion_pa)    # may hold a "."
-        cone = json.loads((ROOT / "results/cone" / f"{stem}.json").read_text())
-        prof = read_table(ROOT / "results/cone" / f"{stem}.csv")
-        prof = prof[(prof.base_depth_m >= 0) & (prof.base_depth_m <= 0.15)]
-        bins = (prof.base_depth_m * 1000 // 10) * 10 + 5
-        mean = prof.groupby(bins).resistance_pa.mean() / 1000
-        ax.plot(mean.values, mean.index, color=colour, label=f"{soil}: {a.cone_index_kpa:.0f} kPa")
+        a = runs.iloc[0]
+        metas = [json.loads((ROOT / "results/beds" / f"{bed}.json").read_text()) for bed in runs.bed]
+        cones, profiles = [], []
+        for r in runs.itertuples():
+            stem = cone_result_name(r.bed, r.cone_scale, r.speed_m_s, r.normal_cohesion_pa)    # may hold a "."
+            cones.append(json.loads((ROOT / "results/cone" / f"{stem}.json").read_text()))
+            prof = read_table(ROOT / "results/cone" / f"{stem}.csv")
+            prof = prof[(prof.base_depth_m >= 0) & (prof.base_depth_m <= 0.15)]
+            profiles.append(prof.groupby((prof.base_depth_m * 1000 // 10) * 10 + 5).resistance_pa.mean() / 1000)
+        mean = pd.concat(profiles, axis=1).mean(axis=1)
+        ax.plot(mean.values, mean.index, color=colour, label=f"{soil}: {a.mean_kpa:.0f} kPa")
         ax.axvline(a.target_kpa, color=colour, ls=":", lw=1)
         target = load_soil(soil)
-        core = core_density(a.bed, meta["grain_density"], target.moisture)
-        rows.append({"soil": soil, "normal_cohesion_kpa": round(a.normal_cohesion_pa / 1000, 2),
+        core = np.mean([core_density(m["key"], m["grain_density"], target.moisture) for m in metas])
+        whole = np.mean([m["whole_bed_dry_bulk_density"] for m in metas])
+        rows.append({"soil": soil, "lateral": a.get("lateral", "walls"), "seeds": len(runs),
+                     "normal_cohesion_kpa": round(a.normal_cohesion_pa / 1000, 2),
                      "friction_deg": a.friction_deg, "rolling_friction": a.rolling_friction,
-                     "cone_index_kpa": round(a.cone_index_kpa, 1), "target_kpa": a.target_kpa,
-                     "ci_error_percent": round(100 * a.error, 1),
-                     "dry_density_interior": round(meta["dry_bulk_density"]),
+                     "cone_index_kpa": round(a.mean_kpa, 1),
+                     "cone_index_sd_kpa": round(runs.cone_index_kpa.std(ddof=1), 1) if len(runs) > 1 else None,
+                     "target_kpa": a.target_kpa, "ci_error_percent": round(100 * a.error, 1),
+                     "dry_density_interior": round(np.mean([m["dry_bulk_density"] for m in metas])),
                      "dry_density_core": round(core),
                      "density_error_core_percent": round(100 * (core / target.bulk_density - 1), 1),
-                     "dry_density_whole_bed":
-                         round(meta["whole_bed_dry_bulk_density"]), "target_density": target.bulk_density,
-                     "density_error_whole_bed_percent": round(100 * (meta["whole_bed_dry_bulk_density"] /
-                                                                     target.bulk_density - 1), 1),
-                     "porosity": round(meta["porosity"], 3), "grain_density": round(meta["grain_density"]),
-                     "particles": meta["particles"], "bed_settle_s": round(meta["wall_s"]),
-                     "cone_run_s": round(cone["wall_s"]), "cone_threads": cone["threads"],
-                     "cone_to_particle": round(cone["cone_to_particle"], 2),
-                     "iterations": int(read_table(CAL / f"{soil}.csv").shape[0])})
+                     "dry_density_whole_bed": round(whole), "target_density": target.bulk_density,
+                     "density_error_whole_bed_percent": round(100 * (whole / target.bulk_density - 1), 1),
+                     "porosity": round(np.mean([m["porosity"] for m in metas]), 3),
+                     "grain_density": round(np.mean([m["grain_density"] for m in metas])),
+                     "particles": round(np.mean([m["particles"] for m in metas])),
+                     "bed_settle_s": round(np.mean([m["wall_s"] for m in metas])),
+                     "cone_run_s": round(np.mean([c["wall_s"] for c in cones])), "cone_threads": cones[0]["threads"],
+                     "cone_to_particle": round(cones[0]["cone_to_particle"], 2),
+                     "iterations": int(read_table(CAL / f"{soil}.csv").iteration.max())})
     ax.invert_yaxis()
     ax.set_xlabel("cone resistance, kPa (10 mm bins; dotted: Table 2 cone index)")
     ax.set_ylabel("cone base depth, mm")
-    ax.set_title("Virtual cone in the calibrated beds (quick resolution)")
+    ax.set_title("Virtual cone in the calibrated beds (mean over the seeds)")
     ax.legend()
     fig.tight_layout()
     fig.savefig(out / "resistance_depth.png", dpi=120)

@@ -36,8 +36,8 @@ def cmd_calibrate(args) -> int:
     from analysis import calibrate
     lo, hi = (float(v) for v in args.cohesion_range.split(","))
     try:
-        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, speed=args.speed,
-                      threads=args.threads)
+        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi,
+                      [int(v) for v in args.seeds.split(",")], args.speed, args.threads, args.lateral, args.workers)
     except (ValueError, RuntimeError) as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1
@@ -234,7 +234,10 @@ def main(argv=None) -> int:
     p.add_argument("--size", default="200,200,280", help="bed length,width,depth in mm")
     p.add_argument("--cone-scale", type=float, default=3.0)
     p.add_argument("--speed", type=float, default=0.5, help="cone speed, m/s")
-    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--seeds", default="1", help="packing seeds; the cone index is their mean, e.g. 1,2,3")
+    p.add_argument("--lateral", default="walls", help="the beds' sides: walls | periodic")
+    p.add_argument("--workers", type=int, default=2, help="cone scenes at a time")
+    p.add_argument("--threads", type=int, default=1, help="threads per scene")
     p.add_argument("--cohesion-range", default="0,200000", help="lo,hi in Pa")
     p.set_defaults(func=cmd_calibrate)
     p = sub.add_parser("report", help="pictures of one run: the holes and the tool's forces")

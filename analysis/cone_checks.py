@@ -24,12 +24,12 @@ from analysis.calibrate import cone_index
 from analysis.calibration_report import CAL, core_density
 from analysis.config import ROOT, ConfigError, Field, check_table, load_resolution, load_soil, read_toml
 from analysis.io import atomic_csv, stamp
-from scripts.bed import bed_key, check_size
+from scripts.bed import bed_key, check_lateral, check_size
 from scripts.cone import CONE_FIELDS
 
 CHECKS = ("replicate", "width", "ratio")
 CASE_FIELDS = {"check": Field(kind=str), "soil": Field(kind=str), "resolution": Field(kind=str),
-               "seed": Field(1, 10**6, kind=int), **CONE_FIELDS}
+               "seed": Field(1, 10**6, kind=int), "lateral": Field(kind=str), **CONE_FIELDS}
 SAME_COHESION = 1e-3           # relative: a stored cone run at this cohesion is the same case
 
 
@@ -44,14 +44,15 @@ def load_cases(path) -> list[dict]:
         where = f"{path}: case {i + 1}"
         merged = {**data.get("base", {}), **fields}
         size = merged.pop("size", None)
-        c = check_table(where, merged, CASE_FIELDS)
+        c = check_table(where, merged, CASE_FIELDS, optional={"lateral": "walls"})
+        check_lateral(c["lateral"])
         if c["check"] not in CHECKS:
             raise ConfigError(f"{where}.check = {c['check']!r}: allowed {', '.join(CHECKS)}")
         if not isinstance(size, list) or len(size) != 3 or not all(isinstance(v, (int, float)) for v in size):
             raise ConfigError(f"{where}.size = {size!r}: give [length, width, depth] in mm")
         c["soil_cfg"], c["res"] = load_soil(c["soil"]), load_resolution(c["resolution"])
         c["size"], c["size_m"] = size, check_size([v / 1000 for v in size])
-        c["bed"] = bed_key(c["soil_cfg"], c["res"], c["size_m"], c["seed"])
+        c["bed"] = bed_key(c["soil_cfg"], c["res"], c["size_m"], c["seed"], c["lateral"])
         cases.append(c)
     if not cases:
         raise ConfigError(f"{path}: no [[case]] tables")
@@ -86,6 +87,7 @@ def row(case: dict, s: dict) -> dict:
     core = core_density(case["bed"], meta["grain_density"], soil.moisture)
     return {"check": case["check"], "soil": soil.name, "resolution": case["resolution"],
             "radius_mm": 1000 * case["res"].radius, "size_mm": "x".join(f"{v:g}" for v in case["size"]),
+            "lateral": case["lateral"],
             "seed": case["seed"], "cone_diameter_mm": round(1000 * s["cone_diameter_m"], 2),
             "cone_to_particle": round(s["cone_to_particle"], 2), "cohesion_kpa": round(s["cohesion_pa"] / 1000, 2),
             "cone_index_kpa": round(s["cone_index_pa"] / 1000, 1), "target_kpa": soil.cone_index / 1000,
@@ -103,16 +105,16 @@ def width_beds(table: pd.DataFrame) -> pd.DataFrame:
     return beds.assign(width=[float(s.split("x")[1]) for s in beds.size_mm])
 
 
-SERIES = ["soil", "seed", "resolution", "cone_diameter_mm"]      # one width series: beds differing only in size
+SERIES = ["soil", "seed", "resolution", "lateral", "cone_diameter_mm"]      # one width series: beds differing only in size
 
 
 def summarise(table: pd.DataFrame) -> list[str]:
     """The checks' verdicts in words: the scatter over seeds per bed, each width step, the ratio trend."""
     lines = []
     beds = width_beds(table)
-    for (soil, res, size), g in beds.groupby(["soil", "resolution", "size_mm"], sort=False):
+    for (soil, res, lateral, size), g in beds.groupby(["soil", "resolution", "lateral", "size_mm"], sort=False):
         sd = g.cone_index_kpa.std(ddof=1) if len(g) > 1 else float("nan")
-        lines.append(f"{soil} ({res}, bed {size} mm): cone index {g.cone_index_kpa.mean():.0f} ± {sd:.0f} kPa over "
+        lines.append(f"{soil} ({res}, {lateral} bed {size} mm): cone index {g.cone_index_kpa.mean():.0f} ± {sd:.0f} kPa over "
                      f"{len(g)} seed(s) (Table 2 {g.target_kpa.iloc[0]:.0f}); core density "
                      f"{g.dry_density_core.mean():.0f} kg/m³ ({g.core_error_percent.mean():+.1f} %)")
     for key, g in beds.groupby(SERIES, sort=False):
@@ -120,7 +122,7 @@ def summarise(table: pd.DataFrame) -> list[str]:
             g = g.sort_values("width")
             for (_, a), (_, b) in zip(g.iloc[:-1].iterrows(), g.iloc[1:].iterrows()):
                 change = 100 * (b.cone_index_kpa / a.cone_index_kpa - 1)
-                lines.append(f"{key[0]} ({b.resolution}, seed {key[1]}): bed {b.size_mm} mm gives "
+                lines.append(f"{key[0]} ({b.resolution}, seed {key[1]}): {b.lateral} bed {b.size_mm} mm gives "
                              f"{b.cone_index_kpa:.0f} kPa, {change:+.1f} % against {a.size_mm} mm (criterion < 5 %)")
     ratio = table[table.check == "ratio"]
     if len(ratio):
@@ -176,12 +178,13 @@ def plot(table: pd.DataFrame, path):
                     t = t[t.base_depth_m >= 0]
                     c.plot(1000 * t.base_depth_m, t.resistance_pa.rolling(25, center=True).mean() / 1000,
                            "-" if r.check == "replicate" else "--",
-                           label=f"{r.soil}, r = {r.radius_mm:g} mm, bed {r.size_mm} mm: {r.cone_index_kpa:.0f} kPa")
-    for (soil, res), g in beds.groupby(["soil", "resolution"], sort=False):   # cone index against bed width
+                           label=f"{r.soil}, r = {r.radius_mm:g} mm, {r.lateral} bed {r.size_mm} mm: "
+                                 f"{r.cone_index_kpa:.0f} kPa")
+    for (soil, res, lateral), g in beds.groupby(["soil", "resolution", "lateral"], sort=False):   # index vs width
         line, = d.plot(g.width, g.cone_index_kpa, "o", alpha=0.5)
         mean = g.groupby("width").cone_index_kpa.mean()
         d.plot(mean.index, mean.values, "-", color=line.get_color(),
-               label=f"{soil}, r = {g.radius_mm.iloc[0]:g} mm: seeds (points), mean (line)")
+               label=f"{soil}, r = {g.radius_mm.iloc[0]:g} mm, {lateral}: seeds (points), mean (line)")
     d.set_xlabel("bed width = length, mm (cone 38.5 mm)")
     d.set_ylabel("cone index over 0-150 mm, kPa")
     d.legend(fontsize=8)
@@ -220,7 +223,7 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
             tag = f"[{c['check']} {c['soil']} {c['resolution']} {size} s{c['seed']} c{c['cone_scale']:g}]"
             try:
                 s = cone_index(c["soil"], c["resolution"], size, c["cone_scale"], c["soil_cfg"].normal_cohesion,
-                               c["seed"], c["speed"], threads, tag=tag)
+                               c["seed"], c["speed"], threads, c["lateral"], tag=tag)
             except RuntimeError as e:               # a failing scene is reported; the others go on
                 failures.append(f"{tag} {e}")
                 say(failures[-1])

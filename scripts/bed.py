@@ -9,7 +9,10 @@ interior; then the grain density is set to ρ_d(1 + w)/(1 - n) so that the bed w
 soil of Table 2 weighs at its dry bulk density ρ_d and moisture w. Cohesion is switched on by the scenes
 that use the bed, so calibrating cohesion never re-settles a bed.
 
-Beds are keyed by soil (its settling parameters), resolution, size and seed: results/beds/<key>.npz + .json.
+Sides: rigid walls (`lateral = "walls"`), or none (`"periodic"`): a YADE periodic cell in x and y, so the bed
+stands for an unbounded field and a cone or punch meets no wall; the saved positions are wrapped into the cell.
+
+Beds are keyed by soil (its settling parameters), resolution, size, sides and seed: results/beds/<key>.npz + .json.
 """
 from __future__ import annotations
 
@@ -30,15 +33,26 @@ SETTLE_UNBALANCED = 0.01     # settled when mean unbalanced force / mean contact
 SETTLE_MIN_TIME = 0.05       # s of deposition before the criterion is checked
 SETTLE_MAX_TIME = 3.0        # s; a bed that does not settle by then is an error, not a result
 CLOUD_FRACTION = 0.30        # solid fraction of the initial random cloud
+LATERAL = ("walls", "periodic")   # a bed's sides
 SIZE_FIELDS = {"length": Field(0.02, 3.0, unit="m"), "width": Field(0.02, 1.0, unit="m"), "depth": Field(0.02, 0.5, unit="m")}
 
 
-def bed_key(soil, res, size, seed: int) -> str:
+def bed_key(soil, res, size, seed: int, lateral: str = "walls") -> str:
+    """The bed's cache name; a periodic bed's carries "-per" (walled beds keep the keys they always had)."""
     params = {"soil": soil.name, **soil.settling_key(), "young": soil.young, "radius": res.radius,
               "spread": res.spread, "size_m": [round(s, 6) for s in size], "seed": seed, "version": 1}
+    if lateral == "periodic":
+        params["lateral"] = lateral
+        params["version"] = 2          # the periodic cloud (version 1 left a loose column along the cell's sides)
     digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
     L, W, D = (round(1000 * s) for s in size)
-    return f"{soil.name}-{res.name}-{L}x{W}x{D}-s{seed}-{digest}"
+    return f"{soil.name}-{res.name}-{L}x{W}x{D}{'-per' if lateral == 'periodic' else ''}-s{seed}-{digest}"
+
+
+def check_lateral(lateral: str) -> str:
+    if lateral not in LATERAL:
+        raise ConfigError(f"bed.lateral = {lateral!r}: allowed {', '.join(LATERAL)}")
+    return lateral
 
 
 def check_size(size) -> tuple:
@@ -55,6 +69,9 @@ def settle(O, utils, max_time: float, label: str, log):
     while True:
         O.run(500, True)
         ub = utils.unbalancedForce()
+        if not math.isfinite(ub) and O.interactions.countReal() == 0 and O.time < t_end:   # 0 / 0: falling freely
+            log(f"{label}: t={O.time:.3f} s  no contacts yet")
+            continue
         if not math.isfinite(ub):
             raise RuntimeError(f"{label}: unbalanced force is {ub} at t = {O.time:.3f} s (numerical blow-up)")
         log(f"{label}: t={O.time:.3f} s  unbalanced={ub:.4f}  steps={O.iter}  wall={time.time() - wall0:.0f} s")
@@ -65,11 +82,11 @@ def settle(O, utils, max_time: float, label: str, log):
 
 
 def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int = 2, quiet: bool = False,
-          bed_dir: Path = BED_DIR, overrides: dict | None = None) -> Path:
+          bed_dir: Path = BED_DIR, overrides: dict | None = None, lateral: str = "walls") -> Path:
     """Build (or find) the bed; returns the .npz path. All checks run before YADE starts."""
     soil, res = soil_with(load_soil(soil_name), overrides or {}), load_resolution(resolution)
     size = check_size([s / 1000.0 for s in size_mm])
-    key = bed_key(soil, res, size, seed)
+    key = bed_key(soil, res, size, seed, check_lateral(lateral))
     out = Path(bed_dir) / f"{key}.npz"
     if out.exists() and out.with_suffix(".json").exists():
         return out
@@ -90,10 +107,17 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
     cloud_h = 1.12 * D * 0.45 / CLOUD_FRACTION + 2 * r
     settle_mat = O.materials.append(part.soil_material(soil, density=2650.0, young=soil.young / 4, cohesive=False))
     steel = O.materials.append(part.steel_material(soil))
-    O.bodies.append(part.container(L, W, cloud_h, steel))
+    periodic = lateral == "periodic"
     sp = pack.SpherePack()
-    sp.makeCloud((0, 0, 0), (L, W, cloud_h), rMean=r, rRelFuzz=res.spread, num=n_target, seed=seed)
+    # A periodic cloud fills the cell up to its sides (a walled one keeps its centres a radius from them, which
+    # in a periodic cell left a loose column along the sides after settling); its z-period is the cloud's height,
+    # so it starts a largest radius above the floor. The scene's cell is set after toSimulation, which sets its own.
+    z0 = r * (1 + res.spread) if periodic else 0.0
+    sp.makeCloud((0, 0, z0), (L, W, cloud_h), rMean=r, rRelFuzz=res.spread, num=n_target, seed=seed, periodic=periodic)
     sp.toSimulation(material=settle_mat)
+    if periodic:
+        part.periodic_cell(O, L, W, cloud_h + 0.1)
+    O.bodies.append(part.container(L, W, cloud_h, steel, lateral=lateral))
     log(f"bed {key}: {len(sp)} particles in the cloud (asked {n_target})")
     O.engines = part.engines(damping=0.4, cohesion_on_new_contacts=False)
     O.dt = 0.5 * utils.PWaveTimeStep()
@@ -109,13 +133,15 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
 
     spheres = [b for b in O.bodies if isinstance(b.shape, Sphere)]
     pos = np.array([tuple(b.state.pos) for b in spheres])
+    if periodic:
+        pos[:, :2] %= (L, W)                                               # wrapped into the cell
     rad = np.array([b.shape.radius for b in spheres])
     if not np.all(np.isfinite(pos)) or (pos[:, 2] < -r).any():
         raise RuntimeError("bed: particles left the box or became NaN while settling")
     n = interior_porosity(pos, rad, L, W, D, r)
     grain_density = soil.wet_density / (1.0 - n)
     meta = {"key": key, "soil": soil.name, "resolution": res.name, "radius": r, "spread": res.spread,
-            "size_m": list(size), "seed": seed, "particles": int(len(rad)), "removed_levelling": len(removed),
+            "size_m": list(size), "seed": seed, "lateral": lateral, "particles": int(len(rad)), "removed_levelling": len(removed),
             "porosity": n, "grain_density": grain_density, "wet_bulk_density": grain_density * (1 - n),
             "dry_bulk_density": grain_density * (1 - n) / (1 + soil.moisture),
             "target_dry_bulk_density": soil.bulk_density,
@@ -157,6 +183,7 @@ def bed_arguments(description: str, default_size: str) -> argparse.ArgumentParse
     p.add_argument("--resolution", default="default")
     p.add_argument("--size", default=default_size, help="bed length,width,depth in mm")
     p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--lateral", default="walls", help="the bed's sides: " + " | ".join(LATERAL))
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--bed-dir", default=str(BED_DIR), help="where beds are kept")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
@@ -165,7 +192,7 @@ def bed_arguments(description: str, default_size: str) -> argparse.ArgumentParse
 
 def bed_from_args(a) -> Path:
     return build(a.soil, a.resolution, [float(s) for s in a.size.split(",")], a.seed, a.threads, bed_dir=Path(a.bed_dir),
-                 overrides=parse_overrides(a.set))
+                 overrides=parse_overrides(a.set), lateral=a.lateral)
 
 
 def main(argv=None) -> int:

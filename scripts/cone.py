@@ -68,7 +68,10 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     O.bodies.append([utils.sphere(tuple(p), r, material=mat) for p, r in zip(data["pos"], data["radius"])])
     n_particles = len(data["radius"])
     surface = float(np.percentile(data["pos"][:, 2] + data["radius"], 95))    # level of the upper grains
-    O.bodies.append(part.container(L, W, surface + 0.05, steel))
+    lateral = meta.get("lateral", "walls")
+    if lateral == "periodic":                 # tall enough that the shaft's top stays below the floor's image
+        part.periodic_cell(O, L, W, surface + 0.01 + hc + depth + 0.03 + 0.1)
+    O.bodies.append(part.container(L, W, surface + 0.05, steel, lateral=lateral))
     x0, y0, z_tip0 = L / 2, W / 2, surface + 0.005
     # Blunt tip: a sphere of radius a inscribed at the apex, tangent to the faces, and the facet cone cut
     # where it touches. 24 facets meeting in one vertex would give a grain there up to 24 contacts at full
@@ -117,7 +120,7 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     inertial = (speed / (2 * Rc)) * 2 * meta["radius"] / math.sqrt(p_mean / meta["grain_density"])
     summary = {"bed": meta["key"], "soil": soil.name, "cohesion_pa": soil.normal_cohesion, "cone_scale": cone_scale,
                "cone_diameter_m": 2 * Rc, "cone_to_particle": 2 * Rc / (2 * meta["radius"]), "speed": speed,
-               "cone_index_pa": ci, "inertial_number": inertial, "particles": n_particles, "steps": int(O.iter),
+               "cone_index_pa": ci, "lateral": lateral, "inertial_number": inertial, "particles": n_particles, "steps": int(O.iter),
                "dt": O.dt, "wall_s": time.time() - wall0, "threads": threads,
                "particle_steps_per_s": n_particles * O.iter / (time.time() - wall0)}
     out_dir = out_dir or ROOT / "results/cone"

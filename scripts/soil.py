@@ -34,14 +34,28 @@ def steel_material(soil):
                        density=7850.0, isCohesive=False, momentRotationLaw=False, label="steel")
 
 
-def container(L: float, W: float, H: float, material, t: float = 0.02) -> list:
-    """A fixed floor at z = 0 and four side walls of height H round the box [0, L] × [0, W] (YADE boxes)."""
+def container(L: float, W: float, H: float, material, t: float = 0.02, lateral: str = "walls") -> list:
+    """A fixed floor at z = 0 under [0, L] × [0, W] and four side walls of height H round it (YADE boxes). A
+    laterally periodic bed has no walls, and its floor is 4 × 4 tiles filling the cell: YADE's periodic collider
+    needs every body smaller than half the period."""
     from yade import utils
+    if lateral == "periodic":
+        n = 4
+        return [utils.box(((i + 0.5) * L / n, (j + 0.5) * W / n, -t), (L / (2 * n), W / (2 * n), t), fixed=True,
+                          material=material) for i in range(n) for j in range(n)]
     boxes = [((L / 2, W / 2, -t), (L / 2 + t, W / 2 + t, t))]
     sides = (((-t, W / 2), (t, W / 2 + t)), ((L + t, W / 2), (t, W / 2 + t)),       # x = 0 and x = L
              ((L / 2, -t), (L / 2 + t, t)), ((L / 2, W + t), (L / 2 + t, t)))       # y = 0 and y = W
     boxes += [((*centre, H / 2), (*half, H / 2 + t)) for centre, half in sides]
     return [utils.box(c, e, fixed=True, material=material) for c, e in boxes]
+
+
+def periodic_cell(O, L: float, W: float, H: float):
+    """Make the scene laterally periodic: a YADE periodic cell [0, L] × [0, W] × [0, H], so grains leaving one
+    side re-enter at the other and a tool meets no side wall. YADE's cell is periodic in z too: H must leave
+    well over a grain diameter between the highest grain or tool and the floor's image at z = H."""
+    O.periodic = True
+    O.cell.setBox(L, W, H)
 
 
 def engines(damping: float, cohesion_on_new_contacts: bool, cohesion_now: bool = False, extra=(),

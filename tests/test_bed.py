@@ -65,6 +65,47 @@ def test_bed_is_cached_by_its_key(tiny_bed):
     assert again["key"] == meta["key"] and again["wall_s"] == meta["wall_s"]     # loaded, not settled again
 
 
+def side_solid_fraction(pos, rad, L, W, D, periodic: bool, n_points=100000, seed=0):
+    """Solid fraction (Monte Carlo points) within half a mean radius of the sides x = 0, L and y = 0, W, and
+    inside, both between 2 radii over the floor and 2 under the top. A periodic bed's grains are matched
+    across the cell's sides."""
+    from scipy.spatial import cKDTree
+    r = rad.mean()
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform([0, 0, 2 * r], [L, W, D - 2 * r], size=(n_points, 3))
+    tree = cKDTree(pos, boxsize=(L, W, 10.0)) if periodic else cKDTree(pos)
+    d, i = tree.query(pts, k=8)
+    solid = (d < rad[i]).any(axis=1)
+    side = np.minimum.reduce([pts[:, 0], L - pts[:, 0], pts[:, 1], W - pts[:, 1]]) < r / 2
+    inner = np.minimum.reduce([pts[:, 0], L - pts[:, 0], pts[:, 1], W - pts[:, 1]]) > 2 * r
+    return solid[side].mean(), solid[inner].mean()
+
+
+@pytest.fixture(scope="module")
+def periodic_bed(tmp_path_factory):
+    beds = tmp_path_factory.mktemp("beds")
+    meta = scene("bed.py", "--soil", "clay", "--size", "120,120,100", "--bed-dir", str(beds), "--lateral", "periodic",
+                 *TINY)
+    return beds, meta
+
+
+def test_periodic_bed_has_no_side_walls(tiny_bed, periodic_bed):
+    """The walled bed is loose along its walls (grains cannot pack against a flat wall); the periodic bed is
+    as dense at its cell's sides as inside, and keeps every grain in the cell."""
+    fractions = {}
+    for (beds, meta), periodic in ((tiny_bed, False), (periodic_bed, True)):
+        data = np.load(beds / f"{meta['key']}.npz")
+        pos, rad = data["pos"], data["radius"]
+        L, W, D = meta["size_m"]
+        assert np.all(np.isfinite(pos)) and np.all((pos[:, :2] >= 0) & (pos[:, :2] < (L, W)))
+        assert pos[:, 2].min() > 0 and meta["surface_z"] > D - 2 * meta["radius"]
+        fractions[periodic] = side_solid_fraction(pos, rad, L, W, D, periodic)
+    assert periodic_bed[1]["lateral"] == "periodic" and "-per-" in periodic_bed[1]["key"]
+    (walled_side, walled_inner), (per_side, per_inner) = fractions[False], fractions[True]
+    assert walled_side < 0.8 * walled_inner
+    assert per_side == pytest.approx(per_inner, rel=0.05)
+
+
 @pytest.fixture(scope="module")
 def test_bed(tmp_path_factory):
     """About 2500 particles of r = 3.5 mm: a 25.7 mm cone is 3.7 particle diameters, enough for a depth trend."""

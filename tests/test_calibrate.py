@@ -50,7 +50,8 @@ def test_cone_checks_config_is_checked_before_anything_runs(tmp_path):
     for case, message in (('check = "depth"', r"check = 'depth': allowed replicate, width, ratio"),
                           ('check = "width"\nsize = [300, 300]', r"size = \[300, 300\]: give \[length, width, depth\]"),
                           ('check = "ratio"\ncone_scale = 40.0', r"cone_scale = 40.0 is out of range: allowed \[0.5, 20\]"),
-                          ('check = "ratio"\nsoil = "peat"', "peat")):
+                          ('check = "ratio"\nsoil = "peat"', "peat"),
+                          ('check = "width"\nlateral = "open"', r"bed.lateral = 'open': allowed walls, periodic")):
         path = tmp_path / "checks.toml"
         path.write_text(base + "[[case]]\n" + case + "\n")
         with pytest.raises(ConfigError, match=message):
@@ -60,13 +61,13 @@ def test_cone_checks_config_is_checked_before_anything_runs(tmp_path):
 def test_cone_checks_summary_states_the_width_change_and_the_scatter():
     import pandas as pd
     from analysis import cone_checks
-    common = dict(soil="clay", resolution="quick", target_kpa=450.0, dry_density_core=1270, core_error_percent=3.2,
+    common = dict(soil="clay", resolution="quick", lateral="periodic", target_kpa=450.0, dry_density_core=1270, core_error_percent=3.2,
                   cone_diameter_mm=38.49)
     table = pd.DataFrame([dict(check="replicate", seed=1, size_mm="200x200x280", cone_index_kpa=440.0, **common),
                           dict(check="replicate", seed=2, size_mm="200x200x280", cone_index_kpa=480.0, **common),
                           dict(check="width", seed=1, size_mm="450x450x280", cone_index_kpa=485.1, **common),
                           dict(check="width", seed=1, size_mm="300x300x280", cone_index_kpa=462.0, **common)])
     lines = cone_checks.summarise(table)
-    assert lines[0].startswith("clay (quick, bed 200x200x280 mm): cone index 460 ± 28 kPa over 2 seed(s) (Table 2 450)")
+    assert lines[0].startswith("clay (quick, periodic bed 200x200x280 mm): cone index 460 ± 28 kPa over 2 seed(s) (Table 2 450)")
     assert "300x300x280 mm gives 462 kPa, +5.0 % against 200x200x280 mm" in lines[3]      # each bed against
     assert "450x450x280 mm gives 485 kPa, +5.0 % against 300x300x280 mm" in lines[4]      # the next narrower
