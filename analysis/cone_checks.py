@@ -4,6 +4,9 @@ replicate beds (other packing seeds), on a bed 1.5 × as wide, and against the c
 Also the dry density of a 100 cm³ cutting-ring core in each bed (calibration_report.core_density), a density
 check independent of the interior porosity the grain density is set from.
 
+A case may pin its bond strength (`cohesion`, Pa, normal = shear), as a study at one cohesion does; by default
+it is the soil config's calibrated value.
+
 Every case is one cone scene (scripts/cone.py, its own YADE process); cases sharing a bed run one after another,
 others `workers` at a time. A case already in results/cone/ (same bed, cone, speed, and a cohesion within 0.1 %:
 the config keeps 4 significant digits of the calibrated value) is reused. results/calibration/<config's stem>.csv is
@@ -30,6 +33,7 @@ from scripts.cone import CONE_FIELDS
 CHECKS = ("replicate", "width", "ratio")
 CASE_FIELDS = {"check": Field(kind=str), "soil": Field(kind=str), "resolution": Field(kind=str),
                "seed": Field(1, 10**6, kind=int), "lateral": Field(kind=str), **CONE_FIELDS}
+COHESION = Field(0.0, 1e7, unit="Pa", meaning="bond strength, normal = shear")
 SAME_COHESION = 1e-3           # relative: a stored cone run at this cohesion is the same case
 
 
@@ -43,7 +47,7 @@ def load_cases(path) -> list[dict]:
     for i, fields in enumerate(data.get("case", [])):
         where = f"{path}: case {i + 1}"
         merged = {**data.get("base", {}), **fields}
-        size = merged.pop("size", None)
+        size, cohesion = merged.pop("size", None), merged.pop("cohesion", None)
         c = check_table(where, merged, CASE_FIELDS, optional={"lateral": "walls"})
         check_lateral(c["lateral"])
         if c["check"] not in CHECKS:
@@ -51,6 +55,8 @@ def load_cases(path) -> list[dict]:
         if not isinstance(size, list) or len(size) != 3 or not all(isinstance(v, (int, float)) for v in size):
             raise ConfigError(f"{where}.size = {size!r}: give [length, width, depth] in mm")
         c["soil_cfg"], c["res"] = load_soil(c["soil"]), load_resolution(c["resolution"])
+        c["cohesion"] = (c["soil_cfg"].normal_cohesion if cohesion is None
+                         else COHESION.check(f"{where}.cohesion", cohesion))
         c["size"], c["size_m"] = size, check_size([v / 1000 for v in size])
         c["bed"] = bed_key(c["soil_cfg"], c["res"], c["size_m"], c["seed"], c["lateral"])
         cases.append(c)
@@ -76,7 +82,7 @@ def same_cohesion(s: dict, cohesion_pa: float) -> bool:
 def stored(case: dict) -> dict | None:
     """A finished cone run of this case in results/cone/, or None."""
     found = cone_run(case["bed"], lambda s: (s["cone_scale"], s["speed"]) == (case["cone_scale"], case["speed"])
-                     and same_cohesion(s, case["soil_cfg"].normal_cohesion))
+                     and same_cohesion(s, case["cohesion"]))
     return found[1] if found else None
 
 
@@ -222,7 +228,7 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
             size = ",".join(f"{v:g}" for v in c["size"])
             tag = f"[{c['check']} {c['soil']} {c['resolution']} {size} s{c['seed']} c{c['cone_scale']:g}]"
             try:
-                s = cone_index(c["soil"], c["resolution"], size, c["cone_scale"], c["soil_cfg"].normal_cohesion,
+                s = cone_index(c["soil"], c["resolution"], size, c["cone_scale"], c["cohesion"],
                                c["seed"], c["speed"], threads, c["lateral"], tag=tag)
             except RuntimeError as e:               # a failing scene is reported; the others go on
                 failures.append(f"{tag} {e}")

@@ -46,12 +46,16 @@ def test_cone_checks_config_is_checked_before_anything_runs(tmp_path):
     cases = cone_checks.load_cases(ROOT / "configs/cone_checks.toml")
     assert {c["check"] for c in cases} == set(cone_checks.CHECKS)
     assert len({(c["bed"], c["cone_scale"]) for c in cases}) == len(cases)          # no case twice
+    assert {c["cohesion"] for c in cases if c["soil"] == "clay"} == {load_soil("clay").normal_cohesion}
+    pinned = cone_checks.load_cases(ROOT / "configs/cone_periodic.toml")
+    assert {c["cohesion"] for c in pinned} == {30110.0}                             # a study at one cohesion
     base = '[base]\nsoil = "clay"\nresolution = "quick"\nsize = [200, 200, 280]\nseed = 1\ncone_scale = 3.0\nspeed = 0.5\n'
     for case, message in (('check = "depth"', r"check = 'depth': allowed replicate, width, ratio"),
                           ('check = "width"\nsize = [300, 300]', r"size = \[300, 300\]: give \[length, width, depth\]"),
                           ('check = "ratio"\ncone_scale = 40.0', r"cone_scale = 40.0 is out of range: allowed \[0.5, 20\]"),
                           ('check = "ratio"\nsoil = "peat"', "peat"),
-                          ('check = "width"\nlateral = "open"', r"bed.lateral = 'open': allowed walls, periodic")):
+                          ('check = "width"\nlateral = "open"', r"bed.lateral = 'open': allowed walls, periodic"),
+                          ('check = "width"\ncohesion = -5.0', r"case 1.cohesion = -5.0 is out of range: allowed \[0, 1e\+07\] Pa")):
         path = tmp_path / "checks.toml"
         path.write_text(base + "[[case]]\n" + case + "\n")
         with pytest.raises(ConfigError, match=message):
