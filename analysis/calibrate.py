@@ -80,7 +80,7 @@ def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesio
     done = ROOT / "results/cone" / f"{cone_result_name(bed, cone_scale, speed, cohesion)}.json"
     if done.exists():
         say(f"{tag}{' ' if tag else ''}reused {done.name}")
-        return json.loads(done.read_text())
+        return {**json.loads(done.read_text()), "reused": True}
     cmd = [sys.executable, str(ROOT / "scripts/cone.py"), "--soil", soil, "--resolution", resolution, "--size", size,
            "--cone-scale", str(cone_scale), "--cohesion", str(cohesion), "--seed", str(seed), "--speed", str(speed),
            "--threads", str(threads), "--lateral", lateral]
@@ -135,7 +135,8 @@ def run(soil: str, resolution: str, size: str, cone_scale: float, lo: float, hi:
                                    "lateral": lateral, "particles": s["particles"], "cone_scale": cone_scale,
                                    "cone_to_particle": round(s["cone_to_particle"], 2), "speed_m_s": speed,
                                    "friction_deg": soil_cfg.friction_deg, "rolling_friction": soil_cfg.rolling_friction,
-                                   "wall_s": round(s["wall_s"], 1), "threads": threads}
+                                   "wall_s": round(s["wall_s"], 1), "threads": threads,
+                                   "reused": s.get("reused", False)}
                                   for seed, s in zip(seeds, runs)]))
         atomic_csv(pd.concat(rows, ignore_index=True), out, note)          # every iteration, as it finishes
         return mean
