@@ -121,15 +121,16 @@ def run(soil: str, resolution: str, size: str, cone_scale: float, lo: float, hi:
     rows = [done] if len(done) else []
     note = stamp(f"./holes calibrate --soil {soil} --resolution {resolution} --size {size} --cone-scale {cone_scale:g} "
                  f"--speed {speed:g} --seeds {','.join(map(str, seeds))} --lateral {lateral}")
-    iteration = [int(done.iteration.max()) if len(done) else 0]
+    iteration = int(done.iteration.max()) if len(done) else 0
 
     def f(cohesion):
+        nonlocal iteration
         with ThreadPoolExecutor(max(1, workers)) as pool:
             runs = list(pool.map(lambda seed: cone_index(soil, resolution, size, cone_scale, cohesion, seed, speed,
                                                          threads, lateral, tag=f"[{soil} seed {seed}]"), seeds))
         mean = sum(s["cone_index_pa"] for s in runs) / len(runs)
-        iteration[0] += 1
-        rows.append(pd.DataFrame([{"iteration": iteration[0], "normal_cohesion_pa": cohesion, "seed": seed,
+        iteration += 1
+        rows.append(pd.DataFrame([{"iteration": iteration, "normal_cohesion_pa": cohesion, "seed": seed,
                                    "cone_index_kpa": s["cone_index_pa"] / 1000, "mean_kpa": mean / 1000,
                                    "target_kpa": target / 1000, "error": mean / target - 1, "bed": s["bed"],
                                    "lateral": lateral, "particles": s["particles"], "cone_scale": cone_scale,

@@ -69,8 +69,6 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     n_particles = len(data["radius"])
     surface = float(np.percentile(data["pos"][:, 2] + data["radius"], 95))    # level of the upper grains
     lateral = meta.get("lateral", "walls")
-    if lateral == "periodic":                 # tall enough that the shaft's top stays below the floor's image
-        part.periodic_cell(O, L, W, surface + 0.01 + hc + depth + 0.03 + 0.1)
     O.bodies.append(part.container(L, W, surface + 0.05, steel, lateral=lateral))
     x0, y0, z_tip0 = L / 2, W / 2, surface + 0.005
     # Blunt tip: a sphere of radius a inscribed at the apex, tangent to the faces, and the facet cone cut
@@ -88,6 +86,8 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     shaft_len = depth + 0.03
     shaft_ids = O.bodies.append(geom.facetCylinder((x0, y0, z_tip0 + hc + shaft_len / 2), S313_SHAFT_RATIO * Rc,
                                                    shaft_len, segmentsNumber=16, wallMask=4, material=steel))
+    if lateral == "periodic":                 # the floor's image at the cell's top stays 0.1 m over the shaft's top
+        part.periodic_cell(O, L, W, z_tip0 + hc + shaft_len + 0.1)
     tool = cone_ids + list(shaft_ids)
     rows = []
 
