@@ -25,9 +25,9 @@ import pandas as pd
 from analysis.batch import say
 from analysis.calibrate import cone_index
 from analysis.calibration_report import CAL, core_density
-from analysis.config import ROOT, ConfigError, Field, check_table, load_resolution, load_soil, read_toml
+from analysis.config import ROOT, ConfigError, Field, check_lateral, check_table, load_resolution, load_soil, read_toml
 from analysis.io import atomic_csv, stamp
-from scripts.bed import bed_key, check_lateral, check_size
+from scripts.bed import bed_key, check_size
 from scripts.cone import CONE_FIELDS
 
 CHECKS = ("replicate", "width", "ratio")

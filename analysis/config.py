@@ -212,6 +212,15 @@ def load_sleeve(path, disk: Disk | None = None) -> Sleeve:
 
 # --- scene presets (configs/presets.toml) ---------------------------------------------------------------
 
+LATERAL = ("walls", "periodic")   # a bed's sides: rigid walls, or none (a periodic cell across them)
+
+
+def check_lateral(lateral: str, where: str = "bed.lateral") -> str:
+    if lateral not in LATERAL:
+        raise ConfigError(f"{where} = {lateral!r}: allowed {', '.join(LATERAL)}")
+    return lateral
+
+
 PRESET_FIELDS = {
     "resolution": Field(kind=str, meaning="a section of configs/resolutions.toml"),
     "width": Field(40.0, 1000.0, unit="mm", meaning="bed width across the travel"),
@@ -220,6 +229,7 @@ PRESET_FIELDS = {
     "lead_in": Field(0, 3, kind=int, meaning="holes formed before the measured ones (the strip's start-up)"),
     "run_out": Field(0.0, 500.0, unit="mm", meaning="bed length past the last hole's front"),
     "dt_safety": Field(0.05, 1.0, meaning="time step / P-wave critical time step"),
+    "lateral": Field(kind=str, meaning="the strip's sides: " + " | ".join(LATERAL)),
 }
 
 
@@ -233,6 +243,7 @@ class Preset:
     lead_in: int
     run_out: float
     dt_safety: float
+    lateral: str
 
 
 def named_section(what: str, name: str, path, schema: dict) -> dict:
@@ -246,6 +257,7 @@ def named_section(what: str, name: str, path, schema: dict) -> dict:
 def load_preset(name: str, path="configs/presets.toml") -> Preset:
     v = named_section("preset", name, path, PRESET_FIELDS)
     load_resolution(v["resolution"])
+    check_lateral(v["lateral"], f"{path}: {name}.lateral")
     return Preset(name, **v)
 
 
@@ -255,6 +267,8 @@ def preset_with(preset: Preset, changes: dict) -> Preset:
     checked = {k: PRESET_FIELDS[k].check(f"run.{k}", v) for k, v in changes.items()}
     if "resolution" in checked:
         load_resolution(checked["resolution"])
+    if "lateral" in checked:
+        check_lateral(checked["lateral"], "run.lateral")
     return dataclasses.replace(preset, **checked)
 
 

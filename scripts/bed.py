@@ -25,7 +25,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import ROOT, ConfigError, Field, load_resolution, load_soil, parse_overrides, soil_with  # noqa: E402
+from analysis.config import (LATERAL, ROOT, ConfigError, Field, check_lateral, load_resolution, load_soil,  # noqa: E402
+                             parse_overrides, soil_with)
 from analysis.io import atomic_write  # noqa: E402
 
 BED_DIR = ROOT / "results/beds"
@@ -33,7 +34,6 @@ SETTLE_UNBALANCED = 0.01     # settled when mean unbalanced force / mean contact
 SETTLE_MIN_TIME = 0.05       # s of deposition before the criterion is checked
 SETTLE_MAX_TIME = 3.0        # s; a bed that does not settle by then is an error, not a result
 CLOUD_FRACTION = 0.30        # solid fraction of the initial random cloud
-LATERAL = ("walls", "periodic")   # a bed's sides
 SIZE_FIELDS = {"length": Field(0.02, 3.0, unit="m"), "width": Field(0.02, 1.0, unit="m"), "depth": Field(0.02, 0.5, unit="m")}
 
 
@@ -47,12 +47,6 @@ def bed_key(soil, res, size, seed: int, lateral: str = "walls") -> str:
     digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
     L, W, D = (round(1000 * s) for s in size)
     return f"{soil.name}-{res.name}-{L}x{W}x{D}{'-per' if lateral == 'periodic' else ''}-s{seed}-{digest}"
-
-
-def check_lateral(lateral: str) -> str:
-    if lateral not in LATERAL:
-        raise ConfigError(f"bed.lateral = {lateral!r}: allowed {', '.join(LATERAL)}")
-    return lateral
 
 
 def check_size(size) -> tuple:

@@ -4,7 +4,9 @@
 
 Parts:
 - bed: a settled strip from scripts/bed.py, long enough for `holes` consecutive holes (analysis/kinematics.py),
-  cohesion on for existing and new contacts;
+  cohesion on for existing and new contacts; walled, or (preset `lateral = "periodic"`) periodic across the
+  travel, so its width is the spacing of a row of identical disks (the roller's, seed 001 §2.2) and no side
+  wall stiffens the soil (the walls made the cone read 35 % high, issue 3);
 - tool: N punches, each a facet cylinder (diameter D, from the mounting plate R0 to R - h) and a facet cone of
   height h closed by an inscribed steel sphere (the blunt tip the cone scene needed too: many facets meeting in
   one vertex give a grain there too many stiff contacts); on each punch a press sleeve, an annular facet plate;
@@ -46,6 +48,7 @@ GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100   # grains meet grains, w
 # tools meet grains only: bodies with the same mask sharing a bit with the collider's avoidSelfInteractionMask never meet
 GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
 ESCAPE, ESCAPE_ABOVE = 0.02, 0.3   # m: a grain this far past the walls or floor, or above the surface, has left
+CELL_MARGIN = 0.1           # m between the tools' reach and their image in a periodic strip's cell
 RUN_FIELDS = {"slip": Field(0.0, 0.9, meaning="slip rate δ"),
               "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
               "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)"),
@@ -62,7 +65,8 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
          speed_kmh: float | None = None, holes: int | None = None, seed: int = 1, mode: str = "prescribed",
          width: float | None = None, depth: float | None = None, overrides: dict | None = None,
          disk_inertia: float = 0.05, lead_in: int | None = None, tool: dict | None = None,
-         resolution: str | None = None, dt_safety: float | None = None, weight: float | None = None) -> dict:
+         resolution: str | None = None, dt_safety: float | None = None, weight: float | None = None,
+         lateral: str | None = None) -> dict:
     """Every parameter of the run, checked, before YADE starts."""
     if mode not in MODES:
         raise ConfigError(f"mode = {mode!r}: allowed {', '.join(MODES)}")
@@ -71,7 +75,7 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
     preset = load_preset(preset_name)
     preset = preset_with(preset, {k: v for k, v in (("width", width), ("depth", depth), ("holes", holes),
                                                      ("lead_in", lead_in), ("resolution", resolution),
-                                                     ("dt_safety", dt_safety)) if v is not None})
+                                                     ("dt_safety", dt_safety), ("lateral", lateral)) if v is not None})
     soil = soil_with(load_soil(soil_name), overrides or {})
     slip = RUN_FIELDS["slip"].check("run.slip", disk.slip if slip is None else slip)
     speed_kmh = RUN_FIELDS["speed_kmh"].check("run.speed_kmh", disk.speed_kmh if speed_kmh is None else speed_kmh)
@@ -151,13 +155,15 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     log = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     bed_path = bedmod.build(soil.name, preset["resolution"], params["bed_size_mm"], params["seed"], threads,
                             quiet=quiet, bed_dir=bed_dir or bedmod.BED_DIR,
-                            overrides={k: params["soil"][k] for k in soil.settling_key()})
+                            overrides={k: params["soil"][k] for k in soil.settling_key()}, lateral=preset["lateral"])
     meta = bedmod.load_meta(bed_path)
     out = open_run_folder(out_root, params)
 
     wall0, cpu0 = time.time(), time.process_time()
     # tall walls: a flung grain falls back in
-    data, grain_ids, steel, z_surface, bed_mass = start_scene(soil, bed_path, meta, threads, 0.2)
+    reach = disk.R * 1e-3                   # m: the tools' reach from the axis, whichever way a punch points
+    tool_box = (lay.x_axis0 * 1e-3 - reach, (lay.x_axis0 + lay.speed * lay.t_end) * 1e-3 + reach, lay.H0 * 1e-3 + reach)
+    data, grain_ids, steel, z_surface, bed_mass = start_scene(soil, bed_path, meta, threads, 0.2, tool_box)
     from yade import O, PyRunner, RotationEngine, TranslationEngine, Vector3, utils
     from scripts import soil as part
     W = meta["size_m"][1]
@@ -359,11 +365,14 @@ def open_run_folder(out_root: Path | None, params: dict) -> Path:
     return out
 
 
-def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: float):
+def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: float, tool_box=None):
     """YADE started on `threads` with the bed part of a scene: the settled grains of bed_path (scripts/bed.py)
     in the soil's cohesive material (mask GRAIN_MASK), a steel material for tools and walls, and the
-    container's walls `wall_above` m over the bed's top. Returns (the bed's arrays, grain ids, steel material
-    id, the bed's surface level z (m), the bed's mass (kg))."""
+    container's walls `wall_above` m over the bed's top. A laterally periodic bed becomes a strip periodic
+    across the travel: a YADE cell periodic in y with the bed's width W, and in x longer than everything the
+    tools sweep (`tool_box` = (x_min, x_max, top over the surface) in m), so nothing meets its image along the
+    travel; end walls touch the bed's first and last grains. Returns (the bed's arrays, grain ids, steel
+    material id, the bed's surface level z (m), the bed's mass (kg))."""
     import numpy as np
     from scripts.yadeboot import boot
     boot(threads)
@@ -379,16 +388,27 @@ def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: floa
                                  for p, r in zip(data["pos"], data["radius"])])
     bed_mass = sum(O.bodies[i].state.mass for i in grain_ids)
     z_surface = surface_level(data["pos"], data["radius"], 4 * meta["radius"])
-    O.bodies.append(part.container(L, W, z_surface + wall_above, steel))
+    if meta.get("lateral", "walls") == "periodic":
+        x_min, x_max, top = tool_box
+        x_lo, x_hi = float(np.min(data["pos"][:, 0] - data["radius"])), float(np.max(data["pos"][:, 0] + data["radius"]))
+        cell_x = max(L, x_hi, x_max) - min(0.0, x_lo, x_min) + CELL_MARGIN
+        part.periodic_cell(O, cell_x, W, z_surface + max(wall_above, top) + CELL_MARGIN)
+        O.bodies.append(part.container(L, W, 0.0, steel, lateral="periodic"))        # the floor's tiles
+        O.bodies.append(part.end_walls(x_lo, x_hi, W, z_surface + wall_above, steel))
+    else:
+        O.bodies.append(part.container(L, W, z_surface + wall_above, steel))
     return data, grain_ids, steel, z_surface, bed_mass
 
 
 def save_state(out: Path, grain_ids, z_surface: float, data, header: str, rows):
     """The run's final grains (state.npz: positions, radii, the bed's level and initial positions, which
-    analysis/ reads without YADE) and its time series (timeseries.csv), each written atomically."""
+    analysis/ reads without YADE) and its time series (timeseries.csv), each written atomically. In a periodic
+    strip, y is wrapped into the cell."""
     import numpy as np
     from yade import O
     pos = np.array([tuple(O.bodies[i].state.pos) for i in grain_ids])
+    if O.periodic:
+        pos[:, 1] %= O.cell.size[1]
     rad = np.array([O.bodies[i].shape.radius for i in grain_ids])
     tmp = out / ".state.tmp.npz"
     np.savez_compressed(tmp, pos=pos, radius=rad, z_surface=z_surface, initial_pos=data["pos"])
@@ -408,11 +428,13 @@ def as_tool(ids: list) -> list:
 
 def guard(grain_ids, meta: dict, z_surface: float, speed_limit: float, ke_limit: float) -> float:
     """The stability guard: raises RuntimeError naming the cause on a non-finite grain, a grain out of the
-    bed's box (ESCAPE m beyond its walls and floor, ESCAPE_ABOVE m over its surface), a grain faster than
+    bed's box (ESCAPE m beyond its walls and floor (a periodic strip's y: anywhere), ESCAPE_ABOVE m over its surface), a grain faster than
     `speed_limit` (m/s) or kinetic energy above `ke_limit` (J); else returns the fastest grain's speed."""
     from yade import O, utils
     L, W, _ = meta["size_m"]
     (x0, x1), (y0, y1), (z0, z1) = (-ESCAPE, L + ESCAPE), (-ESCAPE, W + ESCAPE), (-ESCAPE, z_surface + ESCAPE_ABOVE)
+    if meta.get("lateral", "walls") == "periodic":      # across the travel a grain re-enters at the other side
+        y0, y1 = -math.inf, math.inf
     vmax, worst = 0.0, None
     for i in grain_ids:
         b = O.bodies[i]
@@ -461,6 +483,7 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--depth", type=float, help="mm, overrides the preset")
     p.add_argument("--resolution", help="particle size (configs/resolutions.toml), overrides the preset")
     p.add_argument("--dt-safety", type=float, help="time step / critical time step, overrides the preset")
+    p.add_argument("--lateral", help="the strip's sides, walls | periodic, overrides the preset")
     p.add_argument("--mode", default="prescribed", help="prescribed | free")
     p.add_argument("--disk-inertia", type=float, default=0.05, help="kg·m², free mode")
     p.add_argument("--weight", type=float, help="N, free mode: the axis sinks under this load (default: held)")
@@ -479,7 +502,7 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
 def plan_args(a: argparse.Namespace) -> dict:
     return plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
                 parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool), a.resolution, a.dt_safety,
-                a.weight)
+                a.weight, a.lateral)
 
 
 def plan_from_argv(argv: list[str]) -> dict:

@@ -50,6 +50,17 @@ def container(L: float, W: float, H: float, material, t: float = 0.02, lateral: 
     return [utils.box(c, e, fixed=True, material=material) for c, e in boxes]
 
 
+def end_walls(x_lo: float, x_hi: float, W: float, H: float, material, t: float = 0.02, tiles: int = 4) -> list:
+    """Walls from the floor to H across a laterally periodic strip, their faces at x_lo and x_hi, each made of
+    square boxes, `tiles` across the width W (the periodic collider needs every body smaller than half the
+    period, in z too)."""
+    from yade import utils
+    side = W / tiles
+    rows = math.ceil(H / side)
+    return [utils.box((x, (j + 0.5) * side, (k + 0.5) * H / rows), (t, side / 2, H / (2 * rows)), fixed=True,
+                      material=material) for x in (x_lo - t, x_hi + t) for j in range(tiles) for k in range(rows)]
+
+
 def periodic_cell(O, L: float, W: float, H: float):
     """Make the scene laterally periodic: a YADE periodic cell [0, L] × [0, W] × [0, H], so grains leaving one
     side re-enter at the other and a tool meets no side wall. YADE's cell is periodic in z too: H must leave
