@@ -30,8 +30,9 @@ SIDE_SCENES = {                                 # name: (arguments, whether the 
     "low-resistance": ([*FREE, "--set", "normal_cohesion=0", "--set", "shear_cohesion=0"], True),
     "light": ([*FREE, "--depth", "160", "--weight", "100"], True),
     "heavy": ([*FREE, "--depth", "160", "--weight", "2000"], False),
+    # the coarsest grains (800 of them, about a minute): the side scenes must end within test_compare's scene
     "periodic": (["--soil", "clay", "--holes", "1", "--lead-in", "0", "--threads", "1", "--lateral", "periodic",
-                  "--width", "200"], True),
+                  "--width", "160", "--resolution", "coarse"], True),
 }
 
 
