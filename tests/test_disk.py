@@ -92,7 +92,8 @@ def test_weight_sets_the_penetration(side_scenes):
 @pytest.mark.parametrize("args, field", [(["--slip", "1.5"], "slip"), (["--speed", "0"], "speed_kmh"),
                                          (["--mode", "dragged"], "mode"), (["--depth", "50"], "depth"),
                                          (["--weight", "100"], "weight"),
-                                         (["--mode", "free", "--weight", "0.1"], "weight")])
+                                         (["--mode", "free", "--weight", "0.1"], "weight"),
+                                         (["--lateral", "open"], "lateral")])
 def test_bad_run_input_names_the_field(tmp_path, args, field):
     r = run_scene(tmp_path, "--soil", "clay", *args, expect_ok=False)
     assert r.returncode == 2 and field in r.stderr and "allowed" in r.stderr
