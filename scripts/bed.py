@@ -110,7 +110,7 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
     sp.makeCloud((0, 0, z0), (L, W, cloud_h), rMean=r, rRelFuzz=res.spread, num=n_target, seed=seed, periodic=periodic)
     sp.toSimulation(material=settle_mat)
     if periodic:
-        part.periodic_cell(O, L, W, cloud_h + 0.1)
+        part.periodic_cell(O, L, W, cloud_h)
     O.bodies.append(part.container(L, W, cloud_h, steel, lateral=lateral))
     log(f"bed {key}: {len(sp)} particles in the cloud (asked {n_target})")
     O.engines = part.engines(damping=0.4, cohesion_on_new_contacts=False)

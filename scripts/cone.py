@@ -86,8 +86,8 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     shaft_len = depth + 0.03
     shaft_ids = O.bodies.append(geom.facetCylinder((x0, y0, z_tip0 + hc + shaft_len / 2), S313_SHAFT_RATIO * Rc,
                                                    shaft_len, segmentsNumber=16, wallMask=4, material=steel))
-    if lateral == "periodic":                 # the floor's image at the cell's top stays 0.1 m over the shaft's top
-        part.periodic_cell(O, L, W, z_tip0 + hc + shaft_len + 0.1)
+    if lateral == "periodic":                 # the floor's image at the cell's top stays clear of the shaft's top
+        part.periodic_cell(O, L, W, z_tip0 + hc + shaft_len)
     tool = cone_ids + list(shaft_ids)
     rows = []
 

@@ -48,7 +48,6 @@ GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100   # grains meet grains, w
 # tools meet grains only: bodies with the same mask sharing a bit with the collider's avoidSelfInteractionMask never meet
 GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
 ESCAPE, ESCAPE_ABOVE = 0.02, 0.3   # m: a grain this far past the walls or floor, or above the surface, has left
-CELL_MARGIN = 0.1           # m between the tools' reach and their image in a periodic strip's cell
 RUN_FIELDS = {"slip": Field(0.0, 0.9, meaning="slip rate δ"),
               "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
               "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)"),
@@ -160,9 +159,9 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     out = open_run_folder(out_root, params)
 
     wall0, cpu0 = time.time(), time.process_time()
-    # tall walls: a flung grain falls back in
     reach = disk.R * 1e-3                   # m: the tools' reach from the axis, whichever way a punch points
     tool_box = (lay.x_axis0 * 1e-3 - reach, (lay.x_axis0 + lay.speed * lay.t_end) * 1e-3 + reach, lay.H0 * 1e-3 + reach)
+    # tall walls: a flung grain falls back in
     data, grain_ids, steel, z_surface, bed_mass = start_scene(soil, bed_path, meta, threads, 0.2, tool_box)
     from yade import O, PyRunner, RotationEngine, TranslationEngine, Vector3, utils
     from scripts import soil as part
@@ -391,8 +390,8 @@ def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: floa
     if meta.get("lateral", "walls") == "periodic":
         x_min, x_max, top = tool_box
         x_lo, x_hi = float(np.min(data["pos"][:, 0] - data["radius"])), float(np.max(data["pos"][:, 0] + data["radius"]))
-        cell_x = max(L, x_hi, x_max) - min(0.0, x_lo, x_min) + CELL_MARGIN
-        part.periodic_cell(O, cell_x, W, z_surface + max(wall_above, top) + CELL_MARGIN)
+        cell_x = max(L, x_hi, x_max) - min(0.0, x_lo, x_min) + part.CELL_MARGIN
+        part.periodic_cell(O, cell_x, W, z_surface + max(wall_above, top))
         O.bodies.append(part.container(L, W, 0.0, steel, lateral="periodic"))        # the floor's tiles
         O.bodies.append(part.end_walls(x_lo, x_hi, W, z_surface + wall_above, steel))
     else:
@@ -433,7 +432,7 @@ def guard(grain_ids, meta: dict, z_surface: float, speed_limit: float, ke_limit:
     from yade import O, utils
     L, W, _ = meta["size_m"]
     (x0, x1), (y0, y1), (z0, z1) = (-ESCAPE, L + ESCAPE), (-ESCAPE, W + ESCAPE), (-ESCAPE, z_surface + ESCAPE_ABOVE)
-    if meta.get("lateral", "walls") == "periodic":      # across the travel a grain re-enters at the other side
+    if O.periodic:                                      # across the travel a grain re-enters at the other side
         y0, y1 = -math.inf, math.inf
     vmax, worst = 0.0, None
     for i in grain_ids:

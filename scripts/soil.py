@@ -15,6 +15,7 @@ from yade import (CohFrictMat, ForceResetter, InsertionSortCollider, Interaction
                   Law2_ScGeom6D_CohFrictPhys_CohesionMoment)
 
 GRAVITY = (0.0, 0.0, -9.81)
+CELL_MARGIN = 0.1                # m between anything in a periodic cell and its nearest image
 STEEL_SOIL_FRICTION_DEG = 25.0   # soil on polished steel, typical 20-30 deg
 
 
@@ -61,12 +62,12 @@ def end_walls(x_lo: float, x_hi: float, W: float, H: float, material, t: float =
                       material=material) for x in (x_lo - t, x_hi + t) for j in range(tiles) for k in range(rows)]
 
 
-def periodic_cell(O, L: float, W: float, H: float):
-    """Make the scene laterally periodic: a YADE periodic cell [0, L] × [0, W] × [0, H], so grains leaving one
-    side re-enter at the other and a tool meets no side wall. YADE's cell is periodic in z too: H must leave
-    well over a grain diameter between the highest grain or tool and the floor's image at z = H."""
+def periodic_cell(O, L: float, W: float, top: float):
+    """Make the scene laterally periodic: a YADE periodic cell [0, L] × [0, W] × [0, top + CELL_MARGIN], so grains
+    leaving one side re-enter at the other and a tool meets no side wall. YADE's cell is periodic in z too:
+    `top` is the highest a grain or tool gets, and the floor's image stays CELL_MARGIN above it."""
     O.periodic = True
-    O.cell.setBox(L, W, H)
+    O.cell.setBox(L, W, top + CELL_MARGIN)
 
 
 def engines(damping: float, cohesion_on_new_contacts: bool, cohesion_now: bool = False, extra=(),
