@@ -47,7 +47,7 @@ def cmd_calibrate(args) -> int:
 def cmd_cone_checks(args) -> int:
     from analysis import cone_checks
     try:
-        cone_checks.run(args.config, args.workers, args.threads)
+        cone_checks.run(args.config, args.workers, args.threads, no_run=args.no_run)
     except RuntimeError as e:
         print(f"cone-checks: {e}", file=sys.stderr)
         return 1
@@ -259,6 +259,7 @@ def main(argv=None) -> int:
     p.add_argument("config", nargs="?", default="configs/cone_checks.toml")
     p.add_argument("--workers", type=int, default=2, help="cone scenes at a time")
     p.add_argument("--threads", type=int, default=1, help="threads per scene")
+    p.add_argument("--no-run", action="store_true", help="table and plot of the stored cases only; run nothing")
     p.set_defaults(func=cmd_cone_checks)
     p = sub.add_parser("calibration-report", help="table and resistance plot of the accepted calibrations")
     p.set_defaults(func=cmd_calibration_report)

@@ -75,3 +75,22 @@ def test_cone_checks_summary_states_the_width_change_and_the_scatter():
     assert lines[0].startswith("clay (quick, periodic bed 200x200x280 mm): cone index 460 ± 28 kPa over 2 seed(s) (Table 2 450)")
     assert "300x300x280 mm gives 462 kPa, +5.0 % against 200x200x280 mm" in lines[3]      # each bed against
     assert "450x450x280 mm gives 485 kPa, +5.0 % against 300x300x280 mm" in lines[4]      # the next narrower
+
+
+def test_cone_checks_no_run_tables_stored_cases_only(tmp_path, monkeypatch):
+    """--no-run runs no scene: with nothing stored it says so; a stored cone run whose bed was settled on
+    another machine (beds are not committed) is tabled with its densities left out, not a crash."""
+    from analysis import cone_checks
+    base = '[base]\nsoil = "clay"\nresolution = "quick"\nsize = [200, 200, 280]\ncone_scale = 3.0\nspeed = 0.5\n'
+    path = tmp_path / "checks.toml"
+    path.write_text(base + '[[case]]\ncheck = "replicate"\nseed = 999999\n')
+    with pytest.raises(RuntimeError, match="none stored"):
+        cone_checks.run(path, out=tmp_path, no_run=True)
+    assert not (tmp_path / "checks.csv").exists() and not (tmp_path / "checks.png").exists()
+    case = cone_checks.load_cases(path)[0]
+    monkeypatch.setattr(cone_checks, "ROOT", tmp_path)                      # no results/beds/ there
+    summary = {"cone_diameter_m": 0.03849, "cone_to_particle": 3.85, "cohesion_pa": case["cohesion"],
+               "cone_index_pa": 445e3, "particles": 10146, "steps": 19000, "wall_s": 500.0, "threads": 1}
+    row = cone_checks.row(case, summary)
+    assert row["cone_index_kpa"] == 445.0 and row["ci_error_percent"] == -1.1
+    assert all(row[k] != row[k] for k in ("dry_density_interior", "dry_density_core", "bed_settle_s"))  # NaN
