@@ -90,12 +90,13 @@ def row(case: dict, s: dict) -> dict:
     """One tidy row: the case, its cone index and bed densities against Table 2, and its cost."""
     soil = case["soil_cfg"]
     bed = ROOT / "results/beds" / f"{case['bed']}.json"
+    interior = core = settle_s = float("nan")
     if bed.exists():
         meta = json.loads(bed.read_text())
+        interior, settle_s = meta["dry_bulk_density"], meta["wall_s"]
         core = core_density(case["bed"], meta["grain_density"], soil.moisture)
     else:        # a committed cone run whose bed (not committed) was settled on another machine
         say(f"cone-checks: bed {case['bed']} not in results/beds/; its densities are left out")
-        meta, core = {"dry_bulk_density": float("nan"), "wall_s": float("nan")}, float("nan")
     return {"check": case["check"], "soil": soil.name, "resolution": case["resolution"],
             "radius_mm": 1000 * case["res"].radius, "size_mm": "x".join(f"{v:g}" for v in case["size"]),
             "lateral": case["lateral"],
@@ -103,11 +104,11 @@ def row(case: dict, s: dict) -> dict:
             "cone_to_particle": round(s["cone_to_particle"], 2), "cohesion_kpa": round(s["cohesion_pa"] / 1000, 2),
             "cone_index_kpa": round(s["cone_index_pa"] / 1000, 1), "target_kpa": soil.cone_index / 1000,
             "ci_error_percent": round(100 * (s["cone_index_pa"] / soil.cone_index - 1), 1),
-            "dry_density_interior": round(meta["dry_bulk_density"], 0), "dry_density_core": round(core, 0),
+            "dry_density_interior": round(interior, 0), "dry_density_core": round(core, 0),
             "target_density": soil.bulk_density,
             "core_error_percent": round(100 * (core / soil.bulk_density - 1), 1),
             "particles": s["particles"], "steps": s["steps"], "cone_s": round(s["wall_s"]),
-            "bed_settle_s": round(meta["wall_s"], 0), "threads": s["threads"], "bed": case["bed"]}
+            "bed_settle_s": round(settle_s, 0), "threads": s["threads"], "bed": case["bed"]}
 
 
 def width_beds(table: pd.DataFrame) -> pd.DataFrame:

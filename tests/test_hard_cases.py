@@ -15,7 +15,7 @@ CAUSES = ("non-finite", "left the box", "moves at", "kinetic energy")
 CLAY = load_soil("clay")
 
 
-CASES = {                      # the first of each pair of workers' queues settles a strip the later ones share
+CASES = {                      # run in this order, two at a time: the strips other cases share are settled first
     "speed-5kmh": ("clay", ["--speed", "5"]),                         # the clay strip (cached by the whole suite)
     "loosest-sand": ("sand", ["--set", "friction_deg=60"]),           # the loosest sand bed the builder makes
     "coarsest": ("clay", ["--resolution", "coarse"]),                 # 8 mm grains: three across the punch
@@ -36,9 +36,10 @@ def scene(scene_dirs, name):
 
 @pytest.fixture(scope="module")
 def hard_runs(scene_dirs):
-    """Every case's finished process, two at a time (one thread each), in CASES' order: while the first
-    settles the clay strip (when no earlier test did), the other worker settles and runs the sand, coarse and
-    deeper strips, so the four cases sharing the clay strip start after it is cached."""
+    """Every case's finished process, two at a time (one thread each), in CASES' order: both workers are busy
+    from the start; while the first case settles the clay strip (when no earlier test did), the other worker
+    settles the sand, coarse and deeper strips, so the four cases sharing the clay strip normally start after
+    it is cached (a race only costs time: beds are written atomically)."""
     with ThreadPoolExecutor(max_workers=2) as pool:
         futures = {name: pool.submit(scene, scene_dirs, name) for name in CASES}
         done = {name: f.result() for name, f in futures.items()}
