@@ -32,11 +32,15 @@ def scene_dirs(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def side_scenes(scene_dirs):
-    """test_disk's one-thread free-rolling scenes (SIDE_SCENES), one after another on a background thread from
-    the first test that asks: test_compare asks, so they run on the core its one-thread clay scene leaves idle.
-    Name -> future of the finished process (a failed scene is the asking test's failure, not this fixture's)."""
+    """test_disk's one-thread scenes (SIDE_SCENES) and then test_duckbeak's, one after another on a background
+    thread from the first test that asks: test_compare asks, so they run on the core its one-thread clay scene
+    leaves idle. Name -> future of the finished process (a failed scene is the asking test's failure, not this
+    fixture's)."""
     from tests.test_disk import SIDE_SCENES, run_scene
+    from tests.test_duckbeak import run_duckbeak
     pool = ThreadPoolExecutor(max_workers=1)
-    yield {name: pool.submit(run_scene, None, *args, dirs=scene_dirs, expect_ok=ok)
-           for name, (args, ok) in SIDE_SCENES.items()}
+    futures = {name: pool.submit(run_scene, None, *args, dirs=scene_dirs, expect_ok=ok)
+               for name, (args, ok) in SIDE_SCENES.items()}
+    futures["duckbeak"] = pool.submit(run_duckbeak, scene_dirs)
+    yield futures
     pool.shutdown(cancel_futures=True)

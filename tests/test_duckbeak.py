@@ -34,22 +34,28 @@ def test_bad_duckbeak_input_names_the_field(change, field):
         duckbeak.plan(**change)
 
 
-def test_the_duckbeak_forms_a_measured_hole(tmp_path):
-    """A coarse, narrow bed: the closed beak reaches the loop's depth and leaves a hole about as wide as itself."""
+def run_duckbeak(dirs):
+    """The duck-beak scene on a coarse, narrow bed, one thread (conftest's side_scenes runs it in the background)."""
+    runs, beds = dirs
+    return subprocess.run([sys.executable, str(ROOT / "scripts/duckbeak.py"), "--resolution", "tiny", "--threads", "1",
+                           "--set", "width=130", "--set", "margin=10", "--set", "below=25", "--set", "relax=0.6",
+                           "--set", "dt_safety=0.8", "--out", str(runs), "--bed-dir", str(beds),
+                           "--report", str(runs.parent / "duckbeak-report")],
+                          capture_output=True, text=True, timeout=1200, cwd=ROOT)
+
+
+def test_the_duckbeak_forms_a_measured_hole(side_scenes, scene_dirs):
+    """The closed beak reaches the loop's depth and leaves a hole about as wide as itself."""
     from analysis.measure import measure_run
-    r = subprocess.run([sys.executable, str(ROOT / "scripts/duckbeak.py"), "--resolution", "tiny", "--threads", "1",
-                        "--set", "width=130", "--set", "margin=10", "--set", "below=25", "--set", "relax=0.6",
-                        "--set", "dt_safety=0.8", "--out", str(tmp_path / "runs"), "--bed-dir", str(tmp_path / "beds"),
-                        "--report", str(tmp_path / "report")],
-                       capture_output=True, text=True, timeout=1200, cwd=ROOT)
+    r = side_scenes["duckbeak"].result()
     assert r.returncode == 0, r.stderr[-3000:]
     summary = json.loads(r.stdout.strip().splitlines()[-1])
-    table = measure_run(tmp_path / "runs" / summary["id"])[0]
+    table = measure_run(scene_dirs[0] / summary["id"])[0]
     hole = table.iloc[0]
     depth, D = summary["path_depth_mm"], 60.0
     assert summary["settled"]                                     # measured at rest, not mid-flight
     assert summary["tip_min_depth_mm"][0] > depth - 2             # the tip went where the linkage took it
     assert 0.3 * depth < hole.bottom < depth + 2                  # and left a hole (loose soil falls back in)
     assert 0.6 * D < hole.L1 < 2.5 * D and 0.6 * D < hole.L0      # about as wide as the beak (longer: it rocks)
-    state = np.load(tmp_path / "runs" / summary["id"] / "state.npz")
+    state = np.load(scene_dirs[0] / summary["id"] / "state.npz")
     assert len(state["pos"]) == len(state["initial_pos"])
