@@ -126,8 +126,7 @@ def cone(tmp_path, beds, cohesion):
 def test_cone_resistance_grows_with_depth_and_cohesion(test_bed, tmp_path):
     # the two pushes side by side, one thread each: 2600 grains gain nothing from a second thread
     with ThreadPoolExecutor(max_workers=2) as pool:
-        weak, strong = pool.map(lambda c: cone(tmp_path, test_bed, c), (0.0, 1e5))
-    (weak, weak_profile), (strong, strong_profile) = weak, strong
+        (weak, weak_profile), (strong, strong_profile) = pool.map(lambda c: cone(tmp_path, test_bed, c), (0.0, 1e5))
     assert strong["cone_index_pa"] > 1.3 * weak["cone_index_pa"] > 0
     cone_height = weak["cone_diameter_m"] / 2 / np.tan(np.radians(15))
     for d in (weak_profile, strong_profile):

@@ -50,12 +50,13 @@ def test_the_duckbeak_forms_a_measured_hole(side_scenes, scene_dirs):
     r = side_scenes["duckbeak"].result()
     assert r.returncode == 0, r.stderr[-3000:]
     summary = json.loads(r.stdout.strip().splitlines()[-1])
-    table = measure_run(scene_dirs[0] / summary["id"])[0]
+    run = scene_dirs[0] / summary["id"]
+    table = measure_run(run)[0]
     hole = table.iloc[0]
     depth, D = summary["path_depth_mm"], 60.0
     assert summary["settled"]                                     # measured at rest, not mid-flight
     assert summary["tip_min_depth_mm"][0] > depth - 2             # the tip went where the linkage took it
     assert 0.3 * depth < hole.bottom < depth + 2                  # and left a hole (loose soil falls back in)
     assert 0.6 * D < hole.L1 < 2.5 * D and 0.6 * D < hole.L0      # about as wide as the beak (longer: it rocks)
-    state = np.load(scene_dirs[0] / summary["id"] / "state.npz")
+    state = np.load(run / "state.npz")
     assert len(state["pos"]) == len(state["initial_pos"])
