@@ -19,6 +19,7 @@ from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
 TOLERANCE = 0.05
 COHESION_KEYS = ("normal_cohesion", "shear_cohesion")   # calibrated together, kept equal
+SAME_COHESION = 1e-3           # relative: a stored cone run at this bond strength is the same run (configs keep 4 digits)
 
 
 def bracket_search(f, target: float, lo: float, hi: float, tol: float = TOLERANCE, max_iter: int = 12, log=print):
@@ -69,18 +70,39 @@ def cone_result_name(bed: str, cone_scale: float, speed: float, cohesion: float)
     return f"{bed}-c{cone_scale:g}-v{speed:g}-coh{cohesion:g}"
 
 
+def cone_run(bed: str, match) -> tuple[Path, dict] | None:
+    """The first finished cone run on `bed` in results/cone/ whose summary satisfies `match`: (its summary's
+    path, the summary), or None."""
+    for path in sorted((ROOT / "results/cone").glob(f"{bed}-*.json")):
+        s = json.loads(path.read_text())
+        if match(s):
+            return path, s
+    return None
+
+
+def same_cohesion(s: dict, cohesion_pa: float) -> bool:
+    """A stored cone run's bond strength is the asked one within SAME_COHESION."""
+    return abs(s["cohesion_pa"] / cohesion_pa - 1) <= SAME_COHESION
+
+
+def stored_cone(bed: str, cone_scale: float, speed: float, cohesion: float) -> tuple[Path, dict] | None:
+    """The finished cone run in results/cone/ of this bed, cone, speed and bond strength (within
+    SAME_COHESION), or None: the one lookup the calibration and the cone checks reuse runs by."""
+    return cone_run(bed, lambda s: (s["cone_scale"], s["speed"]) == (cone_scale, speed) and same_cohesion(s, cohesion))
+
+
 def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesion: float, seed: int = 1,
                speed: float = 0.5, threads: int = 2, lateral: str = "walls", tag: str = "") -> dict:
     """One cone scene in its own YADE process; its progress lines are echoed (prefixed with `tag`) as it runs.
-    Returns its summary; a run of the same bed, cone, speed and cohesion already in results/cone/ is reused."""
+    Returns its summary; a run of the same bed, cone, speed and bond strength already in results/cone/
+    (`stored_cone`) is reused."""
     from analysis.config import load_resolution
     from scripts.bed import bed_key, check_size
     bed = bed_key(load_soil(soil), load_resolution(resolution), check_size([float(v) / 1000 for v in size.split(",")]),
                   seed, lateral)
-    done = ROOT / "results/cone" / f"{cone_result_name(bed, cone_scale, speed, cohesion)}.json"
-    if done.exists():
-        say(f"{tag}{' ' if tag else ''}reused {done.name}")
-        return {**json.loads(done.read_text()), "reused": True}
+    if found := stored_cone(bed, cone_scale, speed, cohesion):
+        say(f"{tag}{' ' if tag else ''}reused {found[0].name}")
+        return {**found[1], "reused": True}
     cmd = [sys.executable, str(ROOT / "scripts/cone.py"), "--soil", soil, "--resolution", resolution, "--size", size,
            "--cone-scale", str(cone_scale), "--cohesion", str(cohesion), "--seed", str(seed), "--speed", str(speed),
            "--threads", str(threads), "--lateral", lateral]

@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.batch import say
-from analysis.calibrate import cone_index
+from analysis.calibrate import cone_index, cone_run, same_cohesion, stored_cone
 from analysis.calibration_report import CAL, core_density
 from analysis.config import ROOT, ConfigError, Field, check_lateral, check_table, load_resolution, load_soil, read_toml
 from analysis.io import atomic_csv, stamp
@@ -34,7 +34,6 @@ CHECKS = ("replicate", "width", "ratio")
 CASE_FIELDS = {"check": Field(kind=str), "soil": Field(kind=str), "resolution": Field(kind=str),
                "seed": Field(1, 10**6, kind=int), "lateral": Field(kind=str), **CONE_FIELDS}
 COHESION = Field(0.0, 1e7, unit="Pa", meaning="bond strength, normal = shear")
-SAME_COHESION = 1e-3           # relative: a stored cone run at this cohesion is the same case
 
 
 def load_cases(path) -> list[dict]:
@@ -65,24 +64,9 @@ def load_cases(path) -> list[dict]:
     return cases
 
 
-def cone_run(bed: str, match) -> tuple[Path, dict] | None:
-    """The first finished cone run on `bed` in results/cone/ whose summary satisfies `match`: (its summary's
-    path, the summary), or None."""
-    for path in sorted((ROOT / "results/cone").glob(f"{bed}-*.json")):
-        s = json.loads(path.read_text())
-        if match(s):
-            return path, s
-    return None
-
-
-def same_cohesion(s: dict, cohesion_pa: float) -> bool:
-    return abs(s["cohesion_pa"] / cohesion_pa - 1) <= SAME_COHESION
-
-
 def stored(case: dict) -> dict | None:
     """A finished cone run of this case in results/cone/, or None."""
-    found = cone_run(case["bed"], lambda s: (s["cone_scale"], s["speed"]) == (case["cone_scale"], case["speed"])
-                     and same_cohesion(s, case["cohesion"]))
+    found = stored_cone(case["bed"], case["cone_scale"], case["speed"], case["cohesion"])
     return found[1] if found else None
 
 

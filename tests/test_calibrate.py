@@ -94,3 +94,15 @@ def test_cone_checks_no_run_tables_stored_cases_only(tmp_path, monkeypatch):
     row = cone_checks.row(case, summary)
     assert row["cone_index_kpa"] == 445.0 and row["ci_error_percent"] == -1.1
     assert all(row[k] != row[k] for k in ("dry_density_interior", "dry_density_core", "bed_settle_s"))  # NaN
+
+
+def test_a_stored_cone_run_is_reused_within_the_bond_tolerance_only():
+    """The calibration and the cone checks find stored runs by one lookup: the same bed, cone and speed and a
+    bond strength within 0.1 % (the sand calibration's last step, 53,673.5 Pa, is what its config keeps as
+    5.367e4), and nothing 1 % off or at another cone."""
+    from analysis.calibrate import stored_cone
+    bed = "sand-quick-200x200x280-per-s1-adbe045a"
+    path, s = stored_cone(bed, 3.0, 0.5, 53670.0)
+    assert path.name.endswith("coh53673.5.json") and s["cohesion_pa"] == pytest.approx(53673.5)
+    assert stored_cone(bed, 3.0, 0.5, 53673.5 * 1.01) is None
+    assert stored_cone(bed, 2.0, 0.5, 53673.5) is None
