@@ -131,6 +131,19 @@ def cmd_pepper(args) -> int:
     return 0
 
 
+def cmd_cone_damage(args) -> int:
+    import pandas as pd
+    from analysis import cone_damage
+    try:
+        table = cone_damage.run(Path(args.folder))
+    except ConfigError as e:
+        print(e, file=sys.stderr)
+        return 2
+    with pd.option_context("display.width", 200):
+        print(table.drop(columns=["map"]).round(3).to_string(index=False))
+    return 0
+
+
 def cmd_calibration_report(args) -> int:
     from analysis import calibration_report
     print(calibration_report.run().to_string(index=False))
@@ -261,6 +274,10 @@ def main(argv=None) -> int:
     p.add_argument("--threads", type=int, default=1, help="threads per scene")
     p.add_argument("--no-run", action="store_true", help="table and plot of the stored cases only; run nothing")
     p.set_defaults(func=cmd_cone_checks)
+    p = sub.add_parser("cone-damage", help="how far cone runs made with --damage broke the bed's bonds "
+                       "(damage_summary.csv, damage.png in their folder)")
+    p.add_argument("folder", nargs="?", default="results/cone_speed")
+    p.set_defaults(func=cmd_cone_damage)
     p = sub.add_parser("calibration-report", help="table and resistance plot of the accepted calibrations")
     p.set_defaults(func=cmd_calibration_report)
     p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs; "

@@ -10,7 +10,9 @@ The cone is scaled by `cone_scale` because a 12.83 mm cone meets only one or two
 2-core machine can hold; cone index = mean (axial force on the cone / base area) over base depths 0-150 mm,
 as in the field. Penetration is faster than S313's 30 mm/s (default 300 mm/s); the inertial number
 I = (v/D_cone)·d/sqrt(p/ρ) stays below 1e-2, the quasi-static range, and the speed is an option.
-Writes results/cone/<bed key>-c<scale>-v<speed>-coh<cohesion>.csv (depth, resistance) and a summary JSON line.
+Writes results/cone/<bed key>-c<scale>-v<speed>-coh<cohesion>.csv (depth, resistance) and a summary JSON line;
+with --damage also <stem>-damage.csv: the bed's first bonds by depth band and distance from the cone's axis,
+and how many of them the penetration broke (how far the cone's damage reaches, against the bed's half-width).
 """
 from __future__ import annotations
 
@@ -31,14 +33,17 @@ S313_APEX_DEG = 30.0
 S313_SPEED = 0.030               # m/s
 APEX_SPHERE_RATIO = 0.2          # blunt-tip sphere radius / cone base radius
 CI_DEPTH = 0.150                 # m: the field's cone index is the mean over 0-150 mm
+DAMAGE_RING = 0.010             # m: radial bins of the damage map
+DAMAGE_BANDS = (0.0, 0.05, 0.10, 0.15, 0.30)   # m below the surface: depth bands of the damage map
 CONE_FIELDS = {"cone_scale": Field(0.5, 20.0, meaning="cone size / ASABE S313 size"),
                "speed": Field(0.001, 2.0, lo_open=True, unit="m/s", meaning="penetration speed")}
 
 
 def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 0.3, cohesion: float | None = None,
         threads: int = 2, depth: float = CI_DEPTH, quiet: bool = False, out_dir: Path | None = None,
-        overrides: dict | None = None) -> dict:
-    """Push the cone from above the surface to `depth` (base depth) and return the summary."""
+        overrides: dict | None = None, damage: bool = False) -> dict:
+    """Push the cone from above the surface to `depth` (base depth) and return the summary; `damage` also
+    writes the damage map (`damage_map`)."""
     cone_scale = CONE_FIELDS["cone_scale"].check("cone.cone_scale", cone_scale)
     speed = CONE_FIELDS["speed"].check("cone.speed", speed)
     soil = soil_with(load_soil(soil_name), overrides or {})
@@ -104,9 +109,12 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     O.dt = 0.5 * utils.PWaveTimeStep()
     n_steps = int(((surface - z_tip0) + hc + depth + 0.005) / speed / O.dt) + 1
     report = max(1, n_steps // 20)
+    first_bonds = None
     while O.iter < n_steps:
         O.run(20, True)
         record()
+        if damage and first_bonds is None:        # the bed's bonds, made at the first step, before the cone arrives
+            first_bonds = bonded_pairs(O, n_particles)
         if O.iter % report < 20:
             log(f"cone: {100 * O.iter / n_steps:3.0f} %  base depth {rows[-1][0] * 1000:5.1f} mm  "
                 f"resistance {rows[-1][1] / 1000:6.1f} kPa  wall {time.time() - wall0:.0f} s")
@@ -128,7 +136,41 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     name = cone_result_name(meta["key"], cone_scale, speed, soil.normal_cohesion)
     atomic_write(out_dir / f"{name}.csv", "base_depth_m,resistance_pa\n" + "".join(f"{a:.5f},{b:.1f}\n" for a, b in rows))
     atomic_write(out_dir / f"{name}.json", json.dumps(summary, indent=1))
+    if damage:
+        now = bonded_pairs(O, n_particles)
+        pos = np.array([O.bodies[i].state.pos for i in range(n_particles)])
+        table = damage_map(first_bonds, now, pos, (x0, y0), surface, (L, W) if lateral == "periodic" else None)
+        atomic_write(out_dir / f"{name}-damage.csv", table.to_csv(index=False))
     return summary
+
+
+def bonded_pairs(O, n_grains: int) -> set:
+    """The grain pairs (id1, id2) whose contact holds an unbroken bond now."""
+    return {(i.id1, i.id2) for i in O.interactions
+            if i.isReal and i.id1 < n_grains and i.id2 < n_grains and not i.phys.cohesionBroken}
+
+
+def damage_map(first: set, now: set, pos, axis: tuple, surface: float, period: tuple | None):
+    """The bonds of `first` by depth band (DAMAGE_BANDS) and ring round the cone's axis (DAMAGE_RING wide) at
+    their midpoints, and how many are missing from `now` (broken, or their grains apart). In a periodic bed
+    the distance is to the nearest image of the axis. Returns a pandas table."""
+    import numpy as np
+    import pandas as pd
+    ij = np.array(sorted(first))
+    mid = 0.5 * (pos[ij[:, 0]] + pos[ij[:, 1]])
+    d = mid[:, :2] - np.asarray(axis)
+    if period is not None:
+        d -= np.asarray(period) * np.round(d / np.asarray(period))
+    ring = np.floor(np.hypot(d[:, 0], d[:, 1]) / DAMAGE_RING).astype(int)
+    band = np.digitize(surface - mid[:, 2], DAMAGE_BANDS) - 1
+    broken = np.array([(i, j) not in now for i, j in ij])
+    t = pd.DataFrame({"band": band, "ring": ring, "broken": broken})
+    t = t[(t.band >= 0) & (t.band < len(DAMAGE_BANDS) - 1)]
+    g = t.groupby(["band", "ring"]).broken.agg(["size", "sum"]).reset_index()
+    return pd.DataFrame({"depth_lo_mm": [1000 * DAMAGE_BANDS[b] for b in g.band],
+                         "depth_hi_mm": [1000 * DAMAGE_BANDS[b + 1] for b in g.band],
+                         "r_lo_mm": 1000 * DAMAGE_RING * g.ring, "r_hi_mm": 1000 * DAMAGE_RING * (g.ring + 1),
+                         "bonds": g["size"], "broken": g["sum"]})
 
 
 def main(argv=None) -> int:
@@ -139,10 +181,11 @@ def main(argv=None) -> int:
     p.add_argument("--cohesion", type=float, help="Pa; overrides the soil config's normal and shear cohesion")
     p.add_argument("--depth", type=float, default=CI_DEPTH * 1000, help="deepest base depth, mm (field: 150)")
     p.add_argument("--out", help="where the resistance CSV goes (default results/cone)")
+    p.add_argument("--damage", action="store_true", help="also map the bonds the cone broke (<stem>-damage.csv)")
     a = p.parse_args(argv)
     try:
         summary = run(bed.bed_from_args(a), a.soil, a.cone_scale, a.speed, a.cohesion, a.threads, a.depth / 1000,
-                      out_dir=Path(a.out) if a.out else None, overrides=parse_overrides(a.set))
+                      out_dir=Path(a.out) if a.out else None, overrides=parse_overrides(a.set), damage=a.damage)
     except (ConfigError, ValueError) as e:
         print(f"cone: {e}", file=sys.stderr)
         return 2

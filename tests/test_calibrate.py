@@ -106,3 +106,36 @@ def test_a_stored_cone_run_is_reused_within_the_bond_tolerance_only():
     assert path.name.endswith("coh53673.5.json") and s["cohesion_pa"] == pytest.approx(53673.5)
     assert stored_cone(bed, 3.0, 0.5, 53673.5 * 1.01) is None
     assert stored_cone(bed, 2.0, 0.5, 53673.5) is None
+
+
+def test_damage_map_bins_bonds_by_depth_and_ring_with_the_periodic_image():
+    import numpy as np
+    from scripts.cone import damage_map
+    surface, axis, period = 0.28, (0.05, 0.1), (0.2, 0.2)
+    pos = np.array([[0.05, 0.10, 0.27], [0.06, 0.10, 0.27],      # beside the axis, 10 mm down: ring 0, band 0
+                    [0.10, 0.10, 0.20], [0.11, 0.10, 0.20],      # 55 mm off the axis, 80 mm down: ring 5, band 1
+                    [0.18, 0.10, 0.20], [0.19, 0.10, 0.20]])     # 135 mm off; 65 mm from the image at x = 0.25
+    first = {(0, 1), (2, 3), (4, 5)}
+    t = damage_map(first, {(2, 3)}, pos, axis, surface, period)
+    got = {(r.depth_lo_mm, r.r_lo_mm): (r.bonds, r.broken) for r in t.itertuples()}
+    assert got == {(0.0, 0.0): (1, 1), (50.0, 50.0): (1, 0), (50.0, 60.0): (1, 1)}
+    walled = damage_map(first, set(), pos, axis, surface, None)      # no image: the third bond is 135 mm off
+    assert set(walled.r_lo_mm) == {0.0, 50.0, 130.0} and walled.broken.sum() == 3
+
+
+def test_cone_damage_summary_reads_the_reach_and_refuses_an_empty_folder(tmp_path):
+    import json
+    import pandas as pd
+    from analysis import cone_damage
+    from analysis.config import ConfigError
+    with pytest.raises(ConfigError, match="no \\*-damage.csv"):
+        cone_damage.summary(tmp_path)
+    stem = "clay-quick-200x200x280-per-s1-abc-c3-v0.5-coh70000"
+    (tmp_path / f"{stem}.json").write_text(json.dumps({"bed": "clay-quick-200x200x280-per-s1-abc", "speed": 0.5,
+                                                      "cohesion_pa": 7e4, "cone_index_pa": 4.5e5, "wall_s": 1.0}))
+    pd.DataFrame({"depth_lo_mm": [0.0, 0.0, 0.0, 150.0], "depth_hi_mm": [50.0, 50.0, 50.0, 300.0],
+                  "r_lo_mm": [0.0, 10.0, 20.0, 0.0], "r_hi_mm": [10.0, 20.0, 30.0, 10.0],
+                  "bonds": [10, 10, 10, 10], "broken": [5, 4, 1, 10]}).to_csv(tmp_path / f"{stem}-damage.csv", index=False)
+    row = cone_damage.summary(tmp_path).iloc[0]
+    assert row.broken_fraction == 0.5 and row.broken_fraction_0_150mm == pytest.approx(1 / 3)
+    assert row.reach_mm == 20.0 and row.half_width_mm == 100.0    # 9 of the 10 broken within 20 mm

@@ -1,0 +1,75 @@
+"""How far a cone's bond damage reaches: the damage maps `./holes cone ... --damage` writes (scripts/cone.py,
+`<stem>-damage.csv`: the bed's first bonds by depth band and ring round the cone's axis, and how many the
+penetration broke), summarised per run and plotted as the broken fraction against the distance from the axis.
+
+    ./holes cone-damage results/cone_speed      -> damage_summary.csv, damage.png in that folder
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from analysis.config import ConfigError
+from analysis.io import atomic_csv, stamp
+
+FAR = 0.10          # broken fraction drawn as the plot's guide line
+REACH = 0.9         # the reach: the radius holding this share of the broken bonds
+
+
+def summary(folder: Path) -> pd.DataFrame:
+    """One row per damage map in `folder`: the cone run's bed, speed and cone index, the bonds broken over the
+    whole bed, at 0-150 mm depth, and the reach: the radius within which REACH of the broken bonds at 0-150 mm
+    lie (the outer edge of that ring), against the bed's half-width."""
+    rows = []
+    for path in sorted(folder.glob("*-damage.csv")):
+        run = json.loads(path.with_name(path.name.replace("-damage.csv", ".json")).read_text())
+        t = pd.read_csv(path)
+        top = near_surface(t)
+        ring = float((t.r_hi_mm - t.r_lo_mm).iloc[0])
+        share = top.broken.cumsum() / top.broken.sum()
+        length, width = (float(s) for s in run["bed"].split("-")[2].split("x")[:2])    # key: soil-res-LxWxD-...
+        rows.append({"bed": run["bed"], "speed_m_s": run["speed"], "cohesion_kpa": run["cohesion_pa"] / 1000,
+                     "cone_index_kpa": run["cone_index_pa"] / 1000, "bonds": int(t.bonds.sum()),
+                     "broken_fraction": t.broken.sum() / t.bonds.sum(),
+                     "broken_fraction_0_150mm": top.broken.sum() / top.bonds.sum(),
+                     "reach_mm": float(share.index[share >= REACH][0]) + ring,
+                     "half_width_mm": min(length, width) / 2, "wall_s": run["wall_s"], "map": path.name})
+    if not rows:
+        raise ConfigError(f"cone-damage: no *-damage.csv in {folder}; run `./holes cone ... --damage --out {folder}`")
+    return pd.DataFrame(rows)
+
+
+def near_surface(t: pd.DataFrame) -> pd.DataFrame:
+    """A damage map's bonds and broken bonds per ring over the cone index's depths, 0-150 mm."""
+    return t[t.depth_hi_mm <= 150].groupby("r_lo_mm")[["bonds", "broken"]].sum()
+
+
+def plot(folder: Path, out: Path) -> None:
+    """Broken fraction (0-150 mm deep) against the distance from the cone's axis, one line per map."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for path in sorted(folder.glob("*-damage.csv")):
+        top = near_surface(pd.read_csv(path))
+        top = top[top.bonds >= 20]                          # rings with too few bonds say nothing
+        bed, speed = path.name.split("-")[1:3], path.name.split("-v")[1].split("-")[0]
+        ax.plot(top.index + 5, top.broken / top.bonds, marker="o", ms=3,
+                label=f"{bed[0]} {bed[1].split('x')[0]} mm bed, {speed} m/s")
+    ax.axhline(FAR, color="grey", lw=0.8, ls=":")
+    ax.set_xlabel("distance of the bond from the cone's axis (mm; nearest periodic image)")
+    ax.set_ylabel("bonds broken, 0-150 mm deep (fraction)")
+    ax.set_title("How far the cone breaks the bed's bonds (clay bond strength)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
+def run(folder: Path) -> pd.DataFrame:
+    table = summary(folder)
+    atomic_csv(table.round(4), folder / "damage_summary.csv", stamp(f"./holes cone-damage {folder}"))
+    plot(folder, folder / "damage.png")
+    return table
