@@ -55,13 +55,15 @@ def plot(folder: Path, out: Path) -> None:
     for path in sorted(folder.glob("*-damage.csv")):
         top = near_surface(pd.read_csv(path))
         top = top[top.bonds >= 20]                          # rings with too few bonds say nothing
-        bed, speed = path.name.split("-")[1:3], path.name.split("-v")[1].split("-")[0]
+        run = json.loads(path.with_name(path.name.replace("-damage.csv", ".json")).read_text())
+        resolution, size = run["bed"].split("-")[1:3]
         ax.plot(top.index + 5, top.broken / top.bonds, marker="o", ms=3,
-                label=f"{bed[0]} {bed[1].split('x')[0]} mm bed, {speed} m/s")
+                label=f"{run['soil']}, {resolution} {size.split('x')[0]} mm bed, {run['speed']:g} m/s, "
+                      f"{run['cohesion_pa'] / 1000:g} kPa bonds: index {run['cone_index_pa'] / 1000:.0f} kPa")
     ax.axhline(FAR, color="grey", lw=0.8, ls=":")
     ax.set_xlabel("distance of the bond from the cone's axis (mm; nearest periodic image)")
     ax.set_ylabel("bonds broken, 0-150 mm deep (fraction)")
-    ax.set_title("How far the cone breaks the bed's bonds (clay bond strength)")
+    ax.set_title("How far the cone breaks the bed's bonds")
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(out, dpi=120)
