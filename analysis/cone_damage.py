@@ -18,27 +18,20 @@ FAR = 0.10          # broken fraction drawn as the plot's guide line
 REACH = 0.9         # the reach: the radius holding this share of the broken bonds
 
 
-def summary(folder: Path) -> pd.DataFrame:
-    """One row per damage map in `folder`: the cone run's bed, speed and cone index, the bonds broken over the
-    whole bed, at 0-150 mm depth, and the reach: the radius within which REACH of the broken bonds at 0-150 mm
-    lie (the outer edge of that ring), against the bed's half-width."""
-    rows = []
-    for path in sorted(folder.glob("*-damage.csv")):
-        run = json.loads(path.with_name(path.name.replace("-damage.csv", ".json")).read_text())
-        t = pd.read_csv(path)
-        top = near_surface(t)
-        ring = float((t.r_hi_mm - t.r_lo_mm).iloc[0])
-        share = top.broken.cumsum() / top.broken.sum()
-        length, width = (float(s) for s in run["bed"].split("-")[2].split("x")[:2])    # key: soil-res-LxWxD-...
-        rows.append({"bed": run["bed"], "speed_m_s": run["speed"], "cohesion_kpa": run["cohesion_pa"] / 1000,
-                     "cone_index_kpa": run["cone_index_pa"] / 1000, "bonds": int(t.bonds.sum()),
-                     "broken_fraction": t.broken.sum() / t.bonds.sum(),
-                     "broken_fraction_0_150mm": top.broken.sum() / top.bonds.sum(),
-                     "reach_mm": float(share.index[share >= REACH][0]) + ring,
-                     "half_width_mm": min(length, width) / 2, "wall_s": run["wall_s"], "map": path.name})
-    if not rows:
+def maps(folder: Path) -> list[tuple[Path, dict, pd.DataFrame]]:
+    """Every damage map in `folder`, read once: (its path, its cone run's summary JSON, the map)."""
+    found = [(path, json.loads(path.with_name(path.name.replace("-damage.csv", ".json")).read_text()), pd.read_csv(path))
+             for path in sorted(folder.glob("*-damage.csv"))]
+    if not found:
         raise ConfigError(f"cone-damage: no *-damage.csv in {folder}; run `./holes cone ... --damage --out {folder}`")
-    return pd.DataFrame(rows)
+    return found
+
+
+def bed_of(run: dict) -> tuple[str, float, float]:
+    """A cone run's bed resolution and its length and width (mm), from the bed key soil-res-LxWxD-..."""
+    _, resolution, size = run["bed"].split("-")[:3]
+    length, width = (float(v) for v in size.split("x")[:2])
+    return resolution, length, width
 
 
 def near_surface(t: pd.DataFrame) -> pd.DataFrame:
@@ -46,19 +39,38 @@ def near_surface(t: pd.DataFrame) -> pd.DataFrame:
     return t[t.depth_hi_mm <= 150].groupby("r_lo_mm")[["bonds", "broken"]].sum()
 
 
-def plot(folder: Path, out: Path) -> None:
-    """Broken fraction (0-150 mm deep) against the distance from the cone's axis, one line per map."""
+def summary(found: list) -> pd.DataFrame:
+    """One row per damage map (`maps`): the cone run's bed, speed and cone index, the bonds broken over the
+    whole bed, at 0-150 mm depth, and the reach: the radius within which REACH of the broken bonds at 0-150 mm
+    lie (the outer edge of that ring), against the bed's half-width."""
+    rows = []
+    for path, run, t in found:
+        top = near_surface(t)
+        ring = float((t.r_hi_mm - t.r_lo_mm).iloc[0])
+        share = top.broken.cumsum() / top.broken.sum()
+        _, length, width = bed_of(run)
+        rows.append({"bed": run["bed"], "speed_m_s": run["speed"], "cohesion_kpa": run["cohesion_pa"] / 1000,
+                     "cone_index_kpa": run["cone_index_pa"] / 1000, "bonds": int(t.bonds.sum()),
+                     "broken_fraction": t.broken.sum() / t.bonds.sum(),
+                     "broken_fraction_0_150mm": top.broken.sum() / top.bonds.sum(),
+                     "reach_mm": float(share.index[share >= REACH][0]) + ring,
+                     "half_width_mm": min(length, width) / 2, "wall_s": run["wall_s"], "map": path.name})
+    return pd.DataFrame(rows)
+
+
+def plot(found: list, out: Path) -> None:
+    """Broken fraction (0-150 mm deep) against the distance from the cone's axis, one line per map (`maps`)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    for path in sorted(folder.glob("*-damage.csv")):
-        top = near_surface(pd.read_csv(path))
+    for _, run, t in found:
+        top = near_surface(t)
         top = top[top.bonds >= 20]                          # rings with too few bonds say nothing
-        run = json.loads(path.with_name(path.name.replace("-damage.csv", ".json")).read_text())
-        resolution, size = run["bed"].split("-")[1:3]
-        ax.plot(top.index + 5, top.broken / top.bonds, marker="o", ms=3,
-                label=f"{run['soil']}, {resolution} {size.split('x')[0]} mm bed, {run['speed']:g} m/s, "
+        resolution, length, _ = bed_of(run)
+        ring_mid = float((t.r_hi_mm - t.r_lo_mm).iloc[0]) / 2
+        ax.plot(top.index + ring_mid, top.broken / top.bonds, marker="o", ms=3,
+                label=f"{run['soil']}, {resolution} {length:g} mm bed, {run['speed']:g} m/s, "
                       f"{run['cohesion_pa'] / 1000:g} kPa bonds: index {run['cone_index_pa'] / 1000:.0f} kPa")
     ax.axhline(FAR, color="grey", lw=0.8, ls=":")
     ax.set_xlabel("distance of the bond from the cone's axis (mm; nearest periodic image)")
@@ -71,7 +83,8 @@ def plot(folder: Path, out: Path) -> None:
 
 
 def run(folder: Path) -> pd.DataFrame:
-    table = summary(folder)
+    found = maps(folder)
+    table = summary(found)
     atomic_csv(table.round(4), folder / "damage_summary.csv", stamp(f"./holes cone-damage {folder}"))
-    plot(folder, folder / "damage.png")
+    plot(found, folder / "damage.png")
     return table

@@ -129,13 +129,13 @@ def test_cone_damage_summary_reads_the_reach_and_refuses_an_empty_folder(tmp_pat
     from analysis import cone_damage
     from analysis.config import ConfigError
     with pytest.raises(ConfigError, match="no \\*-damage.csv"):
-        cone_damage.summary(tmp_path)
+        cone_damage.maps(tmp_path)
     stem = "clay-quick-200x200x280-per-s1-abc-c3-v0.5-coh70000"
     (tmp_path / f"{stem}.json").write_text(json.dumps({"bed": "clay-quick-200x200x280-per-s1-abc", "speed": 0.5,
                                                       "cohesion_pa": 7e4, "cone_index_pa": 4.5e5, "wall_s": 1.0}))
     pd.DataFrame({"depth_lo_mm": [0.0, 0.0, 0.0, 150.0], "depth_hi_mm": [50.0, 50.0, 50.0, 300.0],
                   "r_lo_mm": [0.0, 10.0, 20.0, 0.0], "r_hi_mm": [10.0, 20.0, 30.0, 10.0],
                   "bonds": [10, 10, 10, 10], "broken": [5, 4, 1, 10]}).to_csv(tmp_path / f"{stem}-damage.csv", index=False)
-    row = cone_damage.summary(tmp_path).iloc[0]
+    row = cone_damage.summary(cone_damage.maps(tmp_path)).iloc[0]
     assert row.broken_fraction == 0.5 and row.broken_fraction_0_150mm == pytest.approx(1 / 3)
     assert row.reach_mm == 20.0 and row.half_width_mm == 100.0    # 9 of the 10 broken within 20 mm
