@@ -131,7 +131,7 @@ def write_back(soil: str, keys, value: float):
 
 
 def run(soil: str, resolution: str, size: str, cone_scale: float, lo: float, hi: float, seeds=(1,),
-        speed: float = 0.5, threads: int = 1, lateral: str = "walls", workers: int = 2) -> float:
+        speed: float = 0.5, threads: int = 1, lateral: str = "periodic", workers: int = 2) -> float:
     """Fit the bond strength so that the cone index, averaged over the packing `seeds` (one bed and cone scene
     each, `workers` at a time), is within TOLERANCE of Table 2. Every seed's run is a row of
     results/calibration/<soil>.csv, with its iteration's mean and that mean's error."""
