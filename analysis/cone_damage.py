@@ -34,6 +34,11 @@ def bed_of(run: dict) -> tuple[str, float, float]:
     return resolution, length, width
 
 
+def ring_width(t: pd.DataFrame) -> float:
+    """A damage map's ring width round the cone's axis, mm (scripts/cone.py's DAMAGE_RING)."""
+    return float((t.r_hi_mm - t.r_lo_mm).iloc[0])
+
+
 def near_surface(t: pd.DataFrame) -> pd.DataFrame:
     """A damage map's bonds and broken bonds per ring over the cone index's depths, 0-150 mm."""
     return t[t.depth_hi_mm <= 150].groupby("r_lo_mm")[["bonds", "broken"]].sum()
@@ -46,14 +51,13 @@ def summary(found: list) -> pd.DataFrame:
     rows = []
     for path, run, t in found:
         top = near_surface(t)
-        ring = float((t.r_hi_mm - t.r_lo_mm).iloc[0])
         share = top.broken.cumsum() / top.broken.sum()
         _, length, width = bed_of(run)
         rows.append({"bed": run["bed"], "speed_m_s": run["speed"], "cohesion_kpa": run["cohesion_pa"] / 1000,
                      "cone_index_kpa": run["cone_index_pa"] / 1000, "bonds": int(t.bonds.sum()),
                      "broken_fraction": t.broken.sum() / t.bonds.sum(),
                      "broken_fraction_0_150mm": top.broken.sum() / top.bonds.sum(),
-                     "reach_mm": float(share.index[share >= REACH][0]) + ring,
+                     "reach_mm": float(share.index[share >= REACH][0]) + ring_width(t),
                      "half_width_mm": min(length, width) / 2, "wall_s": run["wall_s"], "map": path.name})
     return pd.DataFrame(rows)
 
@@ -68,8 +72,7 @@ def plot(found: list, out: Path) -> None:
         top = near_surface(t)
         top = top[top.bonds >= 20]                          # rings with too few bonds say nothing
         resolution, length, _ = bed_of(run)
-        ring_mid = float((t.r_hi_mm - t.r_lo_mm).iloc[0]) / 2
-        ax.plot(top.index + ring_mid, top.broken / top.bonds, marker="o", ms=3,
+        ax.plot(top.index + ring_width(t) / 2, top.broken / top.bonds, marker="o", ms=3,
                 label=f"{run['soil']}, {resolution} {length:g} mm bed, {run['speed']:g} m/s, "
                       f"{run['cohesion_pa'] / 1000:g} kPa bonds: index {run['cone_index_pa'] / 1000:.0f} kPa")
     ax.axhline(FAR, color="grey", lw=0.8, ls=":")
