@@ -92,7 +92,7 @@ def stored_cone(bed: str, cone_scale: float, speed: float, cohesion: float) -> t
 
 
 def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesion: float, seed: int = 1,
-               speed: float = 0.5, threads: int = 2, lateral: str = "walls", tag: str = "") -> dict:
+               speed: float = 0.5, threads: int = 2, lateral: str = "periodic", tag: str = "") -> dict:
     """One cone scene in its own YADE process; its progress lines are echoed (prefixed with `tag`) as it runs.
     Returns its summary; a run of the same bed, cone, speed and bond strength already in results/cone/
     (`stored_cone`) is reused."""

@@ -86,8 +86,9 @@ def pass_probability(holes: pd.DataFrame, criteria: dict, n_boot: int = 2000, se
     from statistics import NormalDist
     v = holes[list(criteria)].dropna()
     n = len(holes)
-    if len(v) < 2:
-        return {"pass_pct": math.nan, "pass_lo": math.nan, "pass_hi": math.nan, "passed": 0, "n": n}
+    passed = int(np.all([v[m] > t for m, t in criteria.items()], axis=0).sum())
+    if len(v) < 2:                                      # no spread to take a distribution from: the count only
+        return {"pass_pct": math.nan, "pass_lo": math.nan, "pass_hi": math.nan, "passed": passed, "n": n}
 
     def prob(mu, sd):
         p = 1.0
@@ -103,7 +104,6 @@ def pass_probability(holes: pd.DataFrame, criteria: dict, n_boot: int = 2000, se
     for _ in range(n_boot):
         sample = {m: rng.normal(mu[m], sd[m], len(v)) for m in criteria}
         boot.append(prob({m: s.mean() for m, s in sample.items()}, {m: s.std(ddof=1) for m, s in sample.items()}))
-    passed = int(np.all([v[m] > t for m, t in criteria.items()], axis=0).sum())
     return {"pass_pct": 100 * found * prob(mu, sd), "pass_lo": 100 * found * float(np.percentile(boot, 2.5)),
             "pass_hi": 100 * found * float(np.percentile(boot, 97.5)), "passed": passed, "n": n}
 

@@ -85,6 +85,9 @@ def test_pass_rate_follows_the_per_hole_distributions():
     lost = pd.concat([wide, pd.DataFrame({"L0": [np.nan], "L1": [np.nan], "L2": [np.nan]})], ignore_index=True)
     r = compare.pass_probability(lost, crit)
     assert r["pass_pct"] == pytest.approx(75.0, abs=0.1) and r["passed"] == 3 and r["n"] == 4
+    # one hole found and passing, one lost: no rate from one hole, but the count is 1 of 2
+    r = compare.pass_probability(lost.iloc[[0, 3]], crit)
+    assert math.isnan(r["pass_pct"]) and r["passed"] == 1 and r["n"] == 2
 
 
 def test_interval_of_the_mean_uses_run_means_when_there_are_replicates():
