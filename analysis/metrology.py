@@ -132,7 +132,8 @@ class HoleMeasure:
     bottom: float       # deepest probed point of the hole below the undisturbed surface
     z_open: float
     l_depth: tuple = ()  # length along the travel at each of DEPTHS below the undisturbed surface (Table 1's l_H)
-    found: bool = True   # False: the opening's centre is more than D/2 from where the punch entered
+    found: bool = True   # False: the opening's centre and its deepest point are both more than D/2 from where
+                         # the punch entered
 
 
 def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sleeve_outer: float,
@@ -144,10 +145,11 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     subsided level z_open = z_surface - h1 by more than one probe radius (grain-scale roughness), grown from
     the deepest cell within D/2 of the expected centre. L2: scanning down from z_open in steps dz, the
     region the probe reaches below z (grown from that deepest cell) until its inscribed diameter is no
-    more than `diameter_min`, interpolated between steps. An opening whose centroid lies more than D/2 from
-    (xc, yc) is not this punch's hole (e.g. the hole is buried and the region found is a trough beside it):
-    the hole is reported not found, with L0, L1, L2 and l_H NaN, so it fails every criterion and no mean
-    takes a number that does not describe it."""
+    more than `diameter_min`, interpolated between steps. An opening whose centroid and deepest point both
+    lie more than D/2 from (xc, yc) is not this punch's hole (e.g. the hole is buried and the region found
+    is a trough beside it): the hole is reported not found, with L0, L1, L2 and l_H NaN, so it fails every
+    criterion and no mean takes a number that does not describe it. An opening smeared along the travel
+    whose bottom is where the punch went down is the punch's hole, wherever its centroid lies."""
     step = xs[1] - xs[0]
     X, Y = np.meshgrid(xs, ys, indexing="ij")
     side = (np.abs(X - xc) <= D / 4) & (np.abs(Y - yc) >= D / 2 + probe) & (np.abs(Y - yc) <= sleeve_outer / 2)
@@ -160,7 +162,9 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     opening = grow(below < z_open - probe, seed)
     if not opening.any():
         return HoleMeasure(xc, h1, 0.0, 0.0, 0.0, z_surface - float(S[seed]), z_open)
-    if np.hypot(X[opening].mean() - xc, Y[opening].mean() - yc) > D / 2:
+    deepest = np.unravel_index(np.argmin(np.where(opening, S, np.inf)), S.shape)
+    if min(np.hypot(X[opening].mean() - xc, Y[opening].mean() - yc),
+           np.hypot(X[deepest] - xc, Y[deepest] - yc)) > D / 2:
         return HoleMeasure(xc, h1, np.nan, np.nan, np.nan, z_surface - float(S[seed]), z_open,
                            (np.nan,) * len(DEPTHS), found=False)
     L0, L1 = sectioned_lengths(opening, step, probe)

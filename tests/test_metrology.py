@@ -61,6 +61,18 @@ def test_a_hole_far_from_where_the_punch_entered_is_not_found():
     assert all(math.isnan(v) for v in (far.L0, far.L1, far.L2, *far.l_depth))
 
 
+def test_a_crater_smeared_ahead_of_its_hole_is_found():
+    """The hole at x = 150 with a scoop 35 mm deep running on to x = 270: the opening's centroid is
+    about 33 mm ahead of the entry (> D/2), but its bottom is under it, so it is this punch's hole."""
+    pos, rad, pos0, rad0 = carved_bed(4.0, 10, 0.2)
+    z_top = np.percentile(pos0[:, 2] + rad0, 99)
+    pos, rad = carve(pos, rad, 220.0, 80, z_top, 100.0, W, 30.0, 5.0, 0.0, ring=0.0)
+    (hole,), z_surface, _ = measure_state(pos, rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
+    assert hole.found and hole.x - 150.0 > 25.0                       # the old centroid rule lost it
+    assert hole.L0 == pytest.approx(four_section_length(166.0, W), abs=2 * 4.0)  # the opening: x 104 ... 270
+    assert hole.bottom == pytest.approx(H1 + STRAIGHT + TAPER, abs=2 * 4.0)
+
+
 def test_criteria_readings_and_a_bad_threshold():
     crit = load_criteria()
     assert crit["stated"] == pytest.approx({"L0": 35 * 2 ** 0.5, "L1": 35 * 2 ** 0.5, "L2": 40.0})
