@@ -134,6 +134,12 @@ def curve(r) -> pd.DataFrame | None:
     return pd.read_csv(found[0].with_suffix(".csv"), comment="#") if found else None
 
 
+def legend(ax):
+    """A legend if the axes has labelled lines (a panel with no width series has none)."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=8)
+
+
 def plot(table: pd.DataFrame, path):
     import matplotlib
     matplotlib.use("Agg")
@@ -165,7 +171,7 @@ def plot(table: pd.DataFrame, path):
                label="wider beds" if i == 0 else None)
     b.set_xticks(range(table.soil.nunique()), list(dict.fromkeys(table.soil)))
     b.set_ylabel("cone index over 0-150 mm, kPa (grey: Table 2 ± 5 %)")
-    b.legend(fontsize=8)
+    legend(b)
     beds = width_beds(table)
     for _, g in beds.groupby(SERIES, sort=False):
         if (g.check == "width").any():          # the width series' curves: dashed for the wider beds
@@ -183,10 +189,10 @@ def plot(table: pd.DataFrame, path):
                label=f"{soil}, r = {g.radius_mm.iloc[0]:g} mm, {lateral}: seeds (points), mean (line)")
     d.set_xlabel("bed width = length, mm (cone 38.5 mm)")
     d.set_ylabel("cone index over 0-150 mm, kPa")
-    d.legend(fontsize=8)
+    legend(d)
     c.set_xlabel("cone base depth, mm (index: mean over 0-150)")
     c.set_ylabel("resistance, kPa (running mean of 25 samples)")
-    c.legend(fontsize=8)
+    legend(c)
     fig.suptitle("Virtual cone checks of the calibrated beds")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
