@@ -133,7 +133,7 @@ class HoleMeasure:
     z_open: float
     l_depth: tuple = ()  # length along the travel at each of DEPTHS below the undisturbed surface (Table 1's l_H)
     found: bool = True   # False: the opening's centre and its deepest point are both more than D/2 from where
-                         # the punch entered, or the opening runs across the strip from side to side
+                         # the punch entered
 
 
 def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sleeve_outer: float,
@@ -149,9 +149,7 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     lie more than D/2 from (xc, yc) is not this punch's hole (e.g. the hole is buried and the region found
     is a trough beside it): the hole is reported not found, with L0, L1, L2 and l_H NaN, so it fails every
     criterion and no mean takes a number that does not describe it. An opening smeared along the travel
-    whose bottom is where the punch went down is the punch's hole, wherever its centroid lies. An opening
-    that reaches both sides of the strip (a trench dragged across it) is not bounded by soil across the
-    travel, so it is not a hole either: its L1 would be the strip's width."""
+    whose bottom is where the punch went down is the punch's hole, wherever its centroid lies."""
     step = xs[1] - xs[0]
     X, Y = np.meshgrid(xs, ys, indexing="ij")
     side = (np.abs(X - xc) <= D / 4) & (np.abs(Y - yc) >= D / 2 + probe) & (np.abs(Y - yc) <= sleeve_outer / 2)
@@ -165,9 +163,8 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     if not opening.any():
         return HoleMeasure(xc, h1, 0.0, 0.0, 0.0, z_surface - float(S[seed]), z_open)
     deepest = np.unravel_index(np.argmin(np.where(opening, S, np.inf)), S.shape)
-    off_centre = min(np.hypot(X[opening].mean() - xc, Y[opening].mean() - yc),
-                     np.hypot(X[deepest] - xc, Y[deepest] - yc)) > D / 2
-    if off_centre or (opening[:, 0].any() and opening[:, -1].any()):   # a trench across the strip: no width
+    if min(np.hypot(X[opening].mean() - xc, Y[opening].mean() - yc),
+           np.hypot(X[deepest] - xc, Y[deepest] - yc)) > D / 2:
         return HoleMeasure(xc, h1, np.nan, np.nan, np.nan, z_surface - float(S[seed]), z_open,
                            (np.nan,) * len(DEPTHS), found=False)
     L0, L1 = sectioned_lengths(opening, step, probe)

@@ -73,18 +73,6 @@ def test_a_crater_smeared_ahead_of_its_hole_is_found():
     assert hole.bottom == pytest.approx(H1 + STRAIGHT + TAPER, abs=2 * 4.0)
 
 
-def test_a_trench_across_the_strip_is_not_a_hole():
-    """The hole with a trench 40 mm deep across the strip's whole width at its front (x 175-195): the opening's
-    centre and bottom are the hole's, but it reaches the strip's sides, so no width is its own."""
-    pos, rad, pos0, rad0 = carved_bed(4.0, 10, 0.2)
-    z_top = np.percentile(pos0[:, 2] + rad0, 99)
-    swap = lambda p: np.column_stack([p[:, 1] - 80 + 185, p[:, 0] - 185 + 80, p[:, 2]])  # x <-> y about x = 185
-    pos, rad = carve(swap(pos), rad, 185.0, 80, z_top, 240.0, 20.0, 35.0, 5.0, 0.0, ring=0.0)  # 240 mm across
-    (hole,), _, _ = measure_state(swap(pos), rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
-    assert not hole.found and math.isnan(hole.L1)
-    assert hole.h1 == pytest.approx(H1, abs=4.0)          # beside the hole, behind the trench: pressed as carved
-
-
 def test_criteria_readings_and_a_bad_threshold():
     crit = load_criteria()
     assert crit["stated"] == pytest.approx({"L0": 35 * 2 ** 0.5, "L1": 35 * 2 ** 0.5, "L2": 40.0})
