@@ -162,9 +162,9 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     opening = grow(below < z_open - probe, seed)
     if not opening.any():
         return HoleMeasure(xc, h1, 0.0, 0.0, 0.0, z_surface - float(S[seed]), z_open)
+    x_open, y_open = float(X[opening].mean()), float(Y[opening].mean())       # the opening's centroid
     deepest = np.unravel_index(np.argmin(np.where(opening, S, np.inf)), S.shape)
-    if min(np.hypot(X[opening].mean() - xc, Y[opening].mean() - yc),
-           np.hypot(X[deepest] - xc, Y[deepest] - yc)) > D / 2:
+    if min(np.hypot(x_open - xc, y_open - yc), np.hypot(X[deepest] - xc, Y[deepest] - yc)) > D / 2:
         return HoleMeasure(xc, h1, np.nan, np.nan, np.nan, z_surface - float(S[seed]), z_open,
                            (np.nan,) * len(DEPTHS), found=False)
     L0, L1 = sectioned_lengths(opening, step, probe)
@@ -179,7 +179,7 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
             L2 = z_open - (prev_z - frac * dz)
             break
         prev_z, prev_d = z, d
-    return HoleMeasure(float(X[opening].mean()), h1, L0, L1, L2, z_surface - float(S[seed]), z_open,
+    return HoleMeasure(x_open, h1, L0, L1, L2, z_surface - float(S[seed]), z_open,
                        tuple(length_at_depth(below, seed, z_surface - H, step, probe) for H in DEPTHS))
 
 

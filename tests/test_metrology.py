@@ -67,7 +67,7 @@ def test_a_crater_smeared_ahead_of_its_hole_is_found():
     pos, rad, pos0, rad0 = carved_bed(4.0, 10, 0.2)
     z_top = np.percentile(pos0[:, 2] + rad0, 99)
     pos, rad = carve(pos, rad, 220.0, 80, z_top, 100.0, W, 30.0, 5.0, 0.0, ring=0.0)
-    (hole,), z_surface, _ = measure_state(pos, rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
+    (hole,), _, _ = measure_state(pos, rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
     assert hole.found and hole.x - 150.0 > 25.0                       # the old centroid rule lost it
     assert hole.L0 == pytest.approx(four_section_length(166.0, W), abs=2 * 4.0)  # the opening: x 104 ... 270
     assert hole.bottom == pytest.approx(H1 + STRAIGHT + TAPER, abs=2 * 4.0)
