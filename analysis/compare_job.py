@@ -4,6 +4,11 @@ comparison with the field (results/comparison.csv, results/comparison.md, result
 Each scene is its own YADE process (scripts/disk.py) in results/runs/<id>/, named by a hash of its
 parameters; a finished run (summary.json present) is reused, a failed one is reported with its log and the
 others go on. All inputs are checked before the first scene starts.
+
+Every run measured here is also kept, small, in <out>/comparison/runs/<id>/ (holes.csv, summary.json,
+config.json; committed with the table), so a table can pool runs made on different machines: a run whose
+folder is not on this machine but is kept there is neither run again nor re-measured, its holes are read as
+they were measured (the file's first line says when). Delete a kept run to have it run and measured anew.
 """
 from __future__ import annotations
 
@@ -30,40 +35,66 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
     fields = [{"soil": soil, "preset": preset, "seed": seed} for soil in soils for seed in seeds]
     cases = [plan_case(f) for f in fields]              # every input checked before any scene, no YADE
     criteria = load_criteria()
+    kept = out / "comparison" / "runs"
     batch = [{"id": c["id"], "tag": f"[{f['soil']} seed {f['seed']}]", "args": scene_args(f)}
-             for f, c in zip(fields, cases)]
+             for f, c in zip(fields, cases) if not (kept / c["id"] / "holes.csv").exists()]
     if no_run:
         failures = []
-        for c in cases:
-            if not finished(runs_dir, c["id"]):
-                say(f"compare: {c['id']} ({c['soil']['name']} seed {c['seed']}) not run (--no-run); left out")
+        for b in batch:
+            if not finished(runs_dir, b["id"]):
+                say(f"compare: {b['id']} {b['tag']} not run (--no-run); left out")
     else:
         failures = run_all(batch, parallel, threads, runs_dir, bed_dir, label=f"compare {preset}")
 
-    ready = [c for c in cases if finished(runs_dir, c["id"])]
-    if not ready:
+    tables, summaries, local = [], [], []
+    for c in cases:
+        if finished(runs_dir, c["id"]):
+            tables.append(measure.run(runs_dir / c["id"]))
+            keep(runs_dir / c["id"], kept / c["id"])
+            local.append(c)
+        elif (kept / c["id"] / "holes.csv").exists():
+            say(f"compare: {c['id']} is not on this machine; its holes as measured earlier ({kept / c['id']})")
+            tables.append(read_table(kept / c["id"] / "holes.csv"))
+        else:
+            continue
+        if (kept / c["id"] / "summary.json").exists():
+            summaries.append(json.loads((kept / c["id"] / "summary.json").read_text()))
+    if not tables:
         say("compare: no run finished")
         return 1
-    holes = pd.concat([measure.run(runs_dir / c["id"]) for c in ready], ignore_index=True)
+    holes = pd.concat(tables, ignore_index=True)
     field = compare.field_table()
     table = compare.compare(holes, field, compare.theory_values(), criteria)
     table.insert(0, "preset", preset)
-    costs = pd.DataFrame([json.loads((runs_dir / c["id"] / "summary.json").read_text()) for c in ready])
-    write(out, preset, holes, table, field, costs, criteria, runs_dir, ready, soils, seeds)
+    write(out, preset, holes, table, field, pd.DataFrame(summaries), criteria, runs_dir, local, soils, seeds)
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures else 0
 
 
-def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, ready, soils, seeds):
+def keep(folder: Path, to: Path):
+    """The small part of a finished, measured run, kept beside the table: holes.csv, summary.json, config.json."""
+    for name in ("holes.csv", "summary.json", "config.json"):
+        atomic_write(to / name, (folder / name).read_text())
+
+
+def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, local, soils, seeds):
     command = f"./holes compare --preset {preset} --soils {','.join(soils)} --seeds {','.join(map(str, seeds))}"
     note = stamp(command)
     folder = out / "comparison"
     folder.mkdir(parents=True, exist_ok=True)
     atomic_csv(holes.round(2), folder / f"{preset}-holes.csv", note)
-    cost = (f"Cost: {len(costs)} runs, {int(costs.particles.mean())} grains each on average, "
-            f"{costs.wall_s.sum():.0f} s of wall time in all ({'/'.join(map(str, sorted(set(costs.threads))))} threads per run; "
-            f"{(costs.wall_s * 200 / costs.travel_mm).mean():.0f} s per 200 mm hole).")
+    cost = "Cost: not recorded for these runs." if costs.empty else (
+        f"Cost: {len(costs)} runs, {int(costs.particles.mean())} grains each on average, "
+        f"{costs.wall_s.sum():.0f} s of wall time in all ({'/'.join(map(str, sorted(set(costs.threads))))} threads per run; "
+        f"{(costs.wall_s * 200 / costs.travel_mm).mean():.0f} s per 200 mm hole).")
+    unrecorded = holes.run.nunique() - len(costs)
+    if unrecorded and not costs.empty:
+        cost += f" The other {unrecorded} runs' summaries were not kept."
+    earlier = sorted(set(holes.run) - {c["id"] for c in local})
+    if earlier:
+        cost += (f" Not on this machine, their holes read as measured earlier (comparison/runs/): "
+                 f"{', '.join(earlier)}.")
     order = compare.ordering(table)
     order_text = "; ".join(f"{m}: field clay > loam > sand {'yes' if o['field'] else 'no'}, simulated "
                            f"{'yes' if o['simulated'] else 'no'}" for m, o in order.items())
@@ -82,7 +113,7 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     compare.plot(table[table.preset == preset], holes, field, preset, folder, note)
     atomic_csv(compare.field_consistency(field, criteria["stated"]), folder / "field_consistency.csv",
                "can each field run's pass rate be true under the stated criteria? see analysis/compare.py")
-    for c in ready:
+    for c in local:
         if c["seed"] == min(seeds):
             for name in ("holes_top.png", "holes_sections.png"):
                 shutil.copyfile(runs_dir / c["id"] / name, folder / f"{preset}-{c['soil']['name']}-{name}")

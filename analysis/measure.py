@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.config import load_seedling
-from analysis.io import atomic_csv
+from analysis.io import atomic_csv, stamp
 from analysis.metrology import DEPTHS, measure_state
 
 COLUMNS = ["run", "soil", "seed", "hole", "found", "x", "C", "h1", "L0", "L1", "L2", "bottom", "grain_radius",
@@ -62,7 +62,8 @@ def run(folder, cell: float = 1.0) -> pd.DataFrame:
     """Measure a finished run; write holes.csv and the pictures into its folder."""
     folder = Path(folder)
     table, holes, z_surface, surf, loaded = measure_run(folder, cell)
-    atomic_csv(table.round(2), folder / "holes.csv", "holes measured by analysis/measure.py (mm); seed 001 §4.2")
+    table = table.round(2)                  # what holes.csv holds, so a kept run's table reads the same
+    atomic_csv(table, folder / "holes.csv", stamp(f"./holes measure {folder.name}") + "; mm, seed 001 §4.2")
     plot(folder, loaded, holes, z_surface, surf)
     return table
 
