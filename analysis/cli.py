@@ -73,7 +73,7 @@ def cmd_compare(args) -> int:
     from analysis import compare_job
     try:
         return compare_job.run(args.preset, args.soils.split(","), [int(s) for s in args.seeds.split(",")],
-                               args.threads, args.parallel, args.runs_dir, args.bed_dir, args.out, args.no_run)
+                               args.threads, args.parallel, args.runs_dir, args.bed_dir, args.out, args.no_run, args.kept)
     except ConfigError as e:
         print(f"compare: {e}", file=sys.stderr)
         return 2
@@ -267,6 +267,8 @@ def main(argv=None) -> int:
     p.add_argument("--parallel", type=int, default=1, help="runs at a time")
     scene_batch_options(p, 2, "where comparison.csv/.md and comparison/ go (default results)")
     p.add_argument("--no-run", action="store_true", help="measure the finished runs only; run nothing")
+    p.add_argument("--kept", action="store_true", help="a run not on this machine but kept beside the table "
+                   "(<out>/comparison/runs/) is read from there, not run: pool runs made elsewhere")
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "
                        "cone-to-particle ratio, core density (results/calibration/cone_checks.csv, .png)")

@@ -6,9 +6,9 @@ parameters; a finished run (summary.json present) is reused, a failed one is rep
 others go on. All inputs are checked before the first scene starts.
 
 Every run measured here is also kept, small, in <out>/comparison/runs/<id>/ (holes.csv, summary.json,
-config.json; committed with the table), so a table can pool runs made on different machines: a run whose
+config.json; committed with the table). With `kept`, a table pools runs made on other machines: a run whose
 folder is not on this machine but is kept there is neither run again nor re-measured, its holes are read as
-they were measured (the file's first line says when). Delete a kept run to have it run and measured anew.
+they were measured (the file's first line says when). Without it, every run not on this machine is run.
 """
 from __future__ import annotations
 
@@ -26,8 +26,9 @@ from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
 def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, parallel: int = 1,
         runs_dir: Path | None = None, bed_dir: Path | None = None, out: Path | None = None,
-        no_run: bool = False) -> int:
-    """Run what is missing (unless `no_run`: then only the finished runs are measured), measure, compare."""
+        no_run: bool = False, kept_runs: bool = False) -> int:
+    """Run what is missing (unless `no_run`: then only the finished runs are measured; with `kept_runs`, runs
+    kept beside the table are not missing), measure, compare."""
     from scripts.bed import BED_DIR
     runs_dir = Path(runs_dir or ROOT / "results/runs")
     bed_dir = Path(bed_dir or BED_DIR)
@@ -36,8 +37,10 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
     cases = [plan_case(f) for f in fields]              # every input checked before any scene, no YADE
     criteria = load_criteria()
     kept = out / "comparison" / "runs"
+    elsewhere = {c["id"] for c in cases if kept_runs and not finished(runs_dir, c["id"])
+                 and (kept / c["id"] / "holes.csv").exists()}
     batch = [{"id": c["id"], "tag": f"[{f['soil']} seed {f['seed']}]", "args": scene_args(f)}
-             for f, c in zip(fields, cases) if not (kept / c["id"] / "holes.csv").exists()]
+             for f, c in zip(fields, cases) if c["id"] not in elsewhere]
     if no_run:
         failures = []
         for b in batch:
@@ -52,7 +55,7 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
             tables.append(measure.run(runs_dir / c["id"]))
             keep(runs_dir / c["id"], kept / c["id"])
             local.append(c)
-        elif (kept / c["id"] / "holes.csv").exists():
+        elif c["id"] in elsewhere:
             say(f"compare: {c['id']} is not on this machine; its holes as measured earlier ({kept / c['id']})")
             tables.append(read_table(kept / c["id"] / "holes.csv"))
         else:
@@ -86,7 +89,7 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     atomic_csv(holes.round(2), folder / f"{preset}-holes.csv", note)
     cost = "Cost: not recorded for these runs." if costs.empty else (
         f"Cost: {len(costs)} runs, {int(costs.particles.mean())} grains each on average, "
-        f"{costs.wall_s.sum():.0f} s of wall time in all ({'/'.join(map(str, sorted(set(costs.threads))))} threads per run; "
+        f"{costs.wall_s.sum():.0f} s of wall time in all (YADE threads per run: {'/'.join(map(str, sorted(set(costs.threads))))}; "
         f"{(costs.wall_s * 200 / costs.travel_mm).mean():.0f} s per 200 mm hole).")
     unrecorded = holes.run.nunique() - len(costs)
     if unrecorded and not costs.empty:

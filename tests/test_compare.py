@@ -36,10 +36,12 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     # the run kept beside the table stands in for a run folder this machine does not have
     kept = tmp_path / "comparison" / "runs"
     assert {p.name for p in next(kept.iterdir()).iterdir()} == {"holes.csv", "summary.json", "config.json"}
-    again = compare("--soils", "clay", "--no-run", dirs=(tmp_path / "elsewhere", scene_dirs[1]), out=tmp_path)
+    again = compare("--soils", "clay", "--no-run", "--kept", dirs=(tmp_path / "elsewhere", scene_dirs[1]), out=tmp_path)
     assert again.returncode == 0 and "not on this machine" in again.stderr, again.stderr[-3000:]
     assert read_table(tmp_path / "comparison.csv").equals(table)
     assert "Not on this machine" in (tmp_path / "comparison.md").read_text()
+    without = compare("--soils", "clay", "--no-run", dirs=(tmp_path / "elsewhere", scene_dirs[1]), out=tmp_path)
+    assert without.returncode == 1 and "no run finished" in without.stderr     # kept runs only on asking
 
 
 @pytest.mark.parametrize("args, field", [(["--preset", "huge"], "preset"), (["--soils", "peat"], "peat")])
