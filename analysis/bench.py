@@ -6,9 +6,12 @@ against the finest case and against the field mean (seed 001 Table 3).
     ./holes bench economies           ->  results/bench/economies.csv and .png
 
 Error of a case: for each of L0, L1, L2 and h1 the difference from the reference (mm), and their mean size
-relative to the field's mean of each metric, mean |m - ref| / field (the `err_*_pct` columns), which the
-Pareto plot shows against wall time. The field mean is the scale for both references, since a simulated h1
-can be near zero and would make a relative error meaningless.
+relative to the field's mean of each metric, mean |m - ref| / field (the `err_*_pct` columns). The field mean
+is the scale for both references, since a simulated h1 can be near zero and would make a relative error
+meaningless. A setting (grain radius, time-step factor, contact modulus) may have several packings (bed
+seeds; configs/studies/speed_vs_error_packings.toml): the reference is the finest setting's mean over its
+packings, and `speed_vs_error_settings.csv` sets each setting's mean difference from it beside its standard
+error, the packing scatter a resolution's error must beat. The Pareto plot shows the settings' means.
 """
 from __future__ import annotations
 
@@ -22,6 +25,8 @@ from analysis.io import atomic_csv, machine, read_table, stamp
 
 METRICS = ("L0", "L1", "L2", "h1")
 STUDY = ROOT / "configs/studies/speed_vs_error.toml"
+PACKINGS = ROOT / "configs/studies/speed_vs_error_packings.toml"
+SETTING = ["radius_mm", "dt_safety", "young_pa"]
 ECONOMIES = ROOT / "configs/studies/economies.toml"
 SCENE_FIELDS = ("width", "depth", "lead_in", "mode")     # what an economies case may change (else: a seed)
 
@@ -45,15 +50,15 @@ def with_numerics(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def errors(table: pd.DataFrame, field: pd.DataFrame) -> pd.DataFrame:
-    """Each case's error against the finest case (the smallest grains at the base time step and modulus)
-    and against the field mean of its soil, both in units of the field mean."""
+    """Each case's error against the finest setting (the smallest grains at the base time step and modulus;
+    the mean over its packings) and against the field mean of its soil, both in units of the field mean."""
     t = with_numerics(table)
     base = t[(t.dt_safety == t.dt_safety.mode()[0]) & (t.young_pa == t.young_pa.mode()[0])]
-    finest = base.loc[base.radius_mm.idxmin()]
-    t["reference"] = finest["run"]
+    finest = base[base.radius_mm == base.radius_mm.min()]
+    t["reference"] = " ".join(finest["run"])
     means = field[field["run"].astype(str) == "mean"].set_index("soil")
     for m in METRICS:
-        t[f"{m}_vs_finest"] = t[m] - finest[m]
+        t[f"{m}_vs_finest"] = t[m] - finest[m].mean()
         t[f"{m}_vs_field"] = t[m] - t["soil"].map(means[m])
     scale = {m: t["soil"].map(means[m]).abs() for m in METRICS}
     for ref in ("finest", "field"):
@@ -61,6 +66,30 @@ def errors(table: pd.DataFrame, field: pd.DataFrame) -> pd.DataFrame:
     t["particle_steps_per_s"] = t.particles * t.steps / t.wall_s
     t["machine"] = machine()
     return t
+
+
+def settings(t: pd.DataFrame) -> pd.DataFrame:
+    """One row per setting of the `errors` table, its packings pooled: their number, mean cost, each metric's
+    mean and SD, and the mean's difference from the finest setting's mean (`d<m>`) with its standard error
+    (`d<m>_se`, from both settings' packing SDs; empty where either has one packing)."""
+    g = t.groupby(SETTING, sort=False)
+    s = g.agg(resolution=("resolution", "first"), packings=("run", "size"), runs=("run", " ".join),
+              particles=("particles", "mean"), steps=("steps", "mean"), wall_s=("wall_s", "mean"),
+              particle_steps_per_s=("particle_steps_per_s", "mean"),
+              **{m: (m, "mean") for m in METRICS}, **{f"{m}_sd": (m, "std") for m in METRICS},
+              **{f"{m}_field": (m, "first") for m in METRICS}).reset_index()
+    for m in METRICS:                                   # the field mean, recovered from the case's difference
+        s[f"{m}_field"] = (t[m] - t[f"{m}_vs_field"]).groupby([t[k] for k in SETTING], sort=False).first().to_numpy()
+    ref = s[s.runs.str.split().map(set) == set(t.reference.iloc[0].split())].iloc[0]
+    for m in METRICS:
+        s[f"d{m}"] = s[m] - ref[m]
+        s[f"d{m}_se"] = np.sqrt(s[f"{m}_sd"] ** 2 / s.packings + ref[f"{m}_sd"] ** 2 / ref.packings)
+    scale = {m: s[f"{m}_field"].abs() for m in METRICS}
+    s["err_finest_pct"] = 100 * np.mean([s[f"d{m}"].abs() / scale[m] for m in METRICS], axis=0)
+    s["err_field_pct"] = 100 * np.mean([(s[m] - s[f"{m}_field"]).abs() / scale[m] for m in METRICS], axis=0)
+    s = s.drop(columns=[f"{m}_field" for m in METRICS])
+    s["machine"] = machine()
+    return s
 
 
 def pareto(t: pd.DataFrame, err: str) -> pd.Series:
@@ -71,7 +100,8 @@ def pareto(t: pd.DataFrame, err: str) -> pd.Series:
 
 
 def label(r) -> str:
-    return f"r {r.radius_mm:g} mm, dt {r.dt_safety:g}, E {r.young_pa / 1e6:g} MPa"
+    n = getattr(r, "packings", 1)
+    return f"r {r.radius_mm:g} mm, dt {r.dt_safety:g}, E {r.young_pa / 1e6:g} MPa" + (f" ({n} packings)" if n > 1 else "")
 
 
 def pyplot():
@@ -193,13 +223,16 @@ def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_ru
     code, name, table = study_table(study_path, workers, threads, runs_dir, bed_dir, out, no_run)
     if table is None:
         return 1
-    t = errors(table, field_table())
+    code2, _, packings = study_table(PACKINGS, workers, threads, runs_dir, bed_dir, out, no_run)
+    t = errors(pd.concat([table, packings]), field_table()) if packings is not None else errors(table, field_table())
     note = stamp("./holes bench speed-vs-error")
-    cols = ["run", "soil", "resolution", "radius_mm", "dt_safety", "young_pa", "particles", "steps", "wall_s",
+    cols = ["run", "soil", "seed", "resolution", "radius_mm", "dt_safety", "young_pa", "particles", "steps", "wall_s",
             "threads", "particle_steps_per_s", *METRICS, *(f"{m}_vs_finest" for m in METRICS),
             *(f"{m}_vs_field" for m in METRICS), "err_finest_pct", "err_field_pct", "reference", "machine"]
     atomic_csv(t[cols].round(4), out / f"{name}.csv", note)
-    plot(t, out / f"{name}.png", note)
-    print(t[["run", "radius_mm", "dt_safety", "young_pa", "particles", "wall_s", "err_finest_pct",
-             "err_field_pct"]].round(2).to_string(index=False))
-    return code
+    s = settings(t)
+    atomic_csv(s.round(4), out / f"{name}_settings.csv", note)
+    plot(s, out / f"{name}.png", note)
+    print(s[["resolution", *SETTING, "packings", "particles", "wall_s", *METRICS, *(f"d{m}" for m in METRICS),
+             *(f"d{m}_se" for m in METRICS), "err_finest_pct"]].round(1).to_string(index=False))
+    return code or code2

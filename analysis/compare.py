@@ -153,7 +153,8 @@ def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: di
 
 
 def ordering(table: pd.DataFrame) -> dict:
-    """The field's soil ordering clay > loam > sand, checked on the simulated means of L0, L2, pass rate."""
+    """The field's soil ordering clay > loam > sand, checked on the simulated means of L0, L2, pass rate;
+    `resolved`: the simulation shows it beyond its scatter (each soil's 95 % interval above the next one's)."""
     out = {}
     for m in ("L0", "L2", "pass_stated", "pass_field"):
         t = table[table.metric == m].set_index("soil")
@@ -161,7 +162,8 @@ def ordering(table: pd.DataFrame) -> dict:
             continue
         s = t.sim_mean
         out[m] = {"field": bool(t.field_mean.clay > t.field_mean.loam > t.field_mean.sand),
-                  "simulated": bool(s.clay > s.loam > s.sand)}
+                  "simulated": bool(s.clay > s.loam > s.sand),
+                  "resolved": bool(t.ci_lo.clay > t.ci_hi.loam and t.ci_lo.loam > t.ci_hi.sand)}
     return out
 
 

@@ -69,7 +69,9 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
     field = compare.field_table()
     table = compare.compare(holes, field, compare.theory_values(), criteria)
     table.insert(0, "preset", preset)
-    write(out, preset, holes, table, field, pd.DataFrame(summaries), criteria, runs_dir, local, soils, seeds)
+    command = (f"./holes compare --preset {preset} --soils {','.join(soils)} --seeds {','.join(map(str, seeds))}"
+               + " --no-run" * no_run + " --kept" * kept_runs)
+    write(out, preset, holes, table, field, pd.DataFrame(summaries), criteria, runs_dir, local, seeds, command)
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures else 0
@@ -81,8 +83,7 @@ def keep(folder: Path, to: Path):
         atomic_write(to / name, (folder / name).read_text())
 
 
-def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, local, soils, seeds):
-    command = f"./holes compare --preset {preset} --soils {','.join(soils)} --seeds {','.join(map(str, seeds))}"
+def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, local, seeds, command: str):
     note = stamp(command)
     folder = out / "comparison"
     folder.mkdir(parents=True, exist_ok=True)
@@ -99,8 +100,10 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
         cost += (f" Not on this machine, their holes read as measured earlier (comparison/runs/): "
                  f"{', '.join(earlier)}.")
     order = compare.ordering(table)
+    overlap = " (not resolved: the soils' 95 % intervals overlap)"
     order_text = "; ".join(f"{m}: field clay > loam > sand {'yes' if o['field'] else 'no'}, simulated "
-                           f"{'yes' if o['simulated'] else 'no'}" for m, o in order.items())
+                           f"{'yes' if o['simulated'] else 'no'}{'' if o['resolved'] else overlap}"
+                           for m, o in order.items())
     md = compare.markdown(table.drop(columns="preset"), preset, note + "\n\n" + cost)
     if order_text:
         md += f"\nSoil ordering (clay > loam > sand): {order_text}.\n"

@@ -2,7 +2,7 @@
 import pandas as pd
 import pytest
 
-from analysis.bench import economies, errors, pareto
+from analysis.bench import economies, errors, pareto, settings
 from analysis.compare import field_table
 
 
@@ -52,3 +52,18 @@ def test_economies_are_changes_against_the_seed_1_reference_with_the_seed_scatte
     assert e.loc["lead_in = 0.0", "dL0"] == pytest.approx(-10.0)
     assert e.loc["seed-to-seed SD (3 packings)", "dL0"] == pytest.approx(2.0)
     assert e.loc["seed-to-seed SD (3 packings)", "dL1"] == 0.0
+
+
+def test_packings_of_a_setting_are_pooled_and_its_error_set_against_their_scatter():
+    t = table()
+    extra = t[t.run.isin(["b", "c"])].assign(run=["b2", "c2"], L0=[100.0, 120.0])  # a second packing of b and c
+    e = errors(pd.concat([t, extra], ignore_index=True), field_table())
+    assert set(e.reference.iloc[0].split()) == {"c", "c2"}
+    assert e.loc[e.run == "c", "L0_vs_finest"].item() == pytest.approx(-5.0)    # against the packings' mean 115
+    s = settings(e).set_index("runs")
+    assert len(s) == 5 and s.loc["c c2", "packings"] == 2 and s.loc["c c2", "dL0"] == 0.0
+    assert s.loc["c c2", "err_finest_pct"] == 0.0
+    assert s.loc["b b2", "L0"] == pytest.approx(107.5) and s.loc["b b2", "dL0"] == pytest.approx(-7.5)
+    sd_b, sd_c = pd.Series([115.0, 100.0]).std(), pd.Series([110.0, 120.0]).std()
+    assert s.loc["b b2", "dL0_se"] == pytest.approx((sd_b ** 2 / 2 + sd_c ** 2 / 2) ** 0.5)
+    assert pd.isna(s.loc["a", "dL0_se"])                                        # one packing: no scatter

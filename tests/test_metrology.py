@@ -123,3 +123,14 @@ def test_the_field_table_against_its_own_criteria():
     assert sand_l1.max_mean_of_failing_holes.min() < 35.0
     relaxed = compare.field_consistency(field, crit["field"])
     assert relaxed.mean_above_threshold.all()
+
+
+def test_soil_ordering_is_resolved_only_when_the_intervals_part():
+    """clay > loam > sand in the means is not enough: each soil's 95 % interval must lie above the next."""
+    def table(ci_half):
+        return pd.DataFrame({"soil": ["clay", "loam", "sand"], "metric": "L0", "field_mean": [91.8, 88.8, 85.2],
+                             "sim_mean": [124.0, 121.0, 118.0], "ci_lo": [124.0 - ci_half, 121.0 - ci_half, 118.0 - ci_half],
+                             "ci_hi": [124.0 + ci_half, 121.0 + ci_half, 118.0 + ci_half]})
+    wide, narrow = compare.ordering(table(12.0))["L0"], compare.ordering(table(1.0))["L0"]
+    assert wide["field"] and wide["simulated"] and not wide["resolved"]
+    assert narrow["simulated"] and narrow["resolved"]
