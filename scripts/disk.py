@@ -21,7 +21,11 @@ Parts:
 A stability guard stops the run, naming the cause, on NaN, a grain faster than GUARD_SPEED × the tip speed,
 a grain outside the box, or kinetic energy above that of the whole bed moving at the tip speed.
 Writes results/runs/<id>/: config.json, timeseries.csv, state.npz (final positions, radii), summary.json
-(written last: a run without it did not finish), optional VTK.
+(written last: a run without it did not finish), optional VTK. Every `checkpoint_every` s of wall time an
+unfinished run saves itself (checkpoint-<step>.yade.gz: YADE's whole scene, bonds included; checkpoint.json,
+written after it and naming it: the sleeves, the disk's state, the records, the energy so far), so a run killed
+or cut off by the machine goes on from there when it is started again with the same parameters; the
+checkpoint is removed when it finishes.
 """
 from __future__ import annotations
 
@@ -43,6 +47,7 @@ from analysis.kinematics import TIP_SPHERE_RATIO, layout  # noqa: E402
 SEGMENTS = 16               # facets round a punch or a sleeve
 SLEEVE_CLEARANCE = 1.0      # mm between the punch and the plate's bore
 RECORD_DT = 5e-4            # s of simulated time between records
+CHECKPOINT_EVERY = 600.0    # s of wall time between checkpoints of an unfinished run (0: none)
 GUARD_EVERY = 200           # steps between stability checks
 GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100   # grains meet grains, walls (mask 1) and tools (bit 2);
 # tools meet grains only: bodies with the same mask sharing a bit with the collider's avoidSelfInteractionMask never meet
@@ -141,7 +146,8 @@ def punch_mesh(disk, sleeve, a: float):
 
 
 def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: Path | None = None,
-             vtk: bool = False, quiet: bool = False) -> dict:
+             vtk: bool = False, quiet: bool = False, checkpoint_every: float = CHECKPOINT_EVERY,
+             resume: bool = True) -> dict:
     from scripts import bed as bedmod
     from analysis.config import disk_from_dict, Sleeve
     from analysis.kinematics import Layout
@@ -157,6 +163,9 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                             overrides={k: params["soil"][k] for k in soil.settling_key()}, lateral=preset["lateral"])
     meta = bedmod.load_meta(bed_path)
     out = open_run_folder(out_root, params)
+    saved = out / "checkpoint.json"
+    if not resume:
+        drop_checkpoint(out)
 
     wall0, cpu0 = time.time(), time.process_time()
     reach = disk.R * 1e-3                   # m: the tools' reach from the axis, whichever way a punch points
@@ -200,11 +209,11 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     slides = [TranslationEngine(translationAxis=(0, 0, 1), velocity=0.0) for _ in range(disk.N)]
     sink = TranslationEngine(translationAxis=(0, 0, 1), velocity=0.0)   # the axis's vertical motion (weight)
     disk_engine = advance + rot + sink
-    disk_engine.ids = [i for ids in punch_ids for i in ids]
+    disk_engine.ids, disk_engine.label = [i for ids in punch_ids for i in ids], "disk_motion"
     plate_engines = []
     for k in range(disk.N):
         e = advance + rot + sink + slides[k]
-        e.ids = plate_ids[k]
+        e.ids, e.label = plate_ids[k], f"plate_motion_{k}"
         plate_engines.append(e)
 
     k_s, m_s = sleeve.stiffness * 1e3, sleeve.mass                      # N/m, kg
@@ -312,12 +321,36 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                 "potential": booked.get("gravWork", 0.0),
                 **{k: v for k, v in booked.items() if k not in ("kinetic", "gravWork", "elastPotential")}}
 
-    O.run(1, True)                          # the bed's contacts exist from here on: the balance starts here
-    energy0 = energy_now()
-    vmax = 0.0
+    if saved.exists():                      # go on from where an earlier process of this run stopped
+        ck = json.loads(saved.read_text())
+        O.load(str(out / ck["scene"]))
+        if O.iter != ck["iter"]:
+            raise RuntimeError(f"{out / ck['scene']} is at step {O.iter}, its checkpoint.json at {ck['iter']}; "
+                               "run again with --rerun")
+        builtins.hook = hook
+        O.trackEnergy = True
+        motion = {e.label: e for e in O.engines}
+        disk_engine = motion["disk_motion"]
+        plate_engines = [motion[f"plate_motion_{k}"] for k in range(disk.N)]
+        advance, rot, sink = disk_engine.comb      # shared with the plates' engines, as they were saved
+        slides = [e.comb[3] for e in plate_engines]
+        law = part.contact_law(O)
+        st.update(ck["st"])
+        energy0, vmax = ck["energy0"], ck["vmax"]
+        wall0, cpu0 = wall0 - ck["wall_s"], cpu0 - ck["cpu_s"]
+        log(f"run {params['id']}: resumed at step {O.iter} of {n_steps} ({ck['wall_s']:.0f} s of wall time done)")
+    else:
+        O.run(1, True)                      # the bed's contacts exist from here on: the balance starts here
+        energy0 = energy_now()
+        vmax = 0.0
+    last_save = time.time()
     while O.iter < n_steps:
         O.run(min(GUARD_EVERY, n_steps - O.iter), True)
         vmax = max(vmax, guard(grain_ids, meta, z_surface, GUARD_SPEED * tip_speed, 0.5 * bed_mass * tip_speed ** 2))
+        if checkpoint_every and time.time() - last_save > checkpoint_every and O.iter < n_steps:
+            save_checkpoint(out, {"st": st, "energy0": energy0, "vmax": vmax, "iter": O.iter,
+                                  "wall_s": time.time() - wall0, "cpu_s": time.process_time() - cpu0})
+            last_save = time.time()
         if weight and -st["z"] > floor_room:
             raise RuntimeError(f"the disk sank {-1000 * st['z']:.1f} mm under W = {weight:g} N at t = {O.time:.4f} s: "
                                f"its tips reach the strip's floor ({preset['depth']:g} mm deep); a lighter W or a "
@@ -352,7 +385,29 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                                 if weight else None),   # below the prescribed height; < 0: above it
                "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids), "energy_J": energy}
     atomic_write(out / "summary.json", json.dumps(summary, indent=1))
+    drop_checkpoint(out)
     return summary
+
+
+def save_checkpoint(out: Path, state: dict):
+    """YADE's scene, then the run's Python state naming it (the json replaced atomically, last), so the
+    checkpoint.json on disk always names a whole scene file; then the older scene files go."""
+    from yade import O
+    scene = f"checkpoint-{O.iter}.yade.gz"
+    tmp = out / f".tmp-{scene}"              # same ending: YADE picks the format by it
+    O.save(str(tmp))
+    tmp.replace(out / scene)
+    atomic_write(out / "checkpoint.json", json.dumps({**state, "scene": scene}))
+    for old in out.glob("checkpoint-*.yade.gz"):
+        if old.name != scene:
+            old.unlink()
+
+
+def drop_checkpoint(out: Path):
+    """The checkpoint's files, and any half-written scene file of a process killed while saving."""
+    (out / "checkpoint.json").unlink(missing_ok=True)
+    for old in [*out.glob("checkpoint-*.yade.gz"), *out.glob(".tmp-checkpoint-*")]:
+        old.unlink()
 
 
 def open_run_folder(out_root: Path | None, params: dict) -> Path:
@@ -494,7 +549,10 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
     p.add_argument("--tool", action="append", metavar="PART.KEY=VALUE",
                    help="override a disk or sleeve field, e.g. disk.D=45, sleeve.stiffness=16")
-    p.add_argument("--rerun", action="store_true", help="run again even if this run's folder has a summary")
+    p.add_argument("--rerun", action="store_true", help="run again from the start, even if this run's folder "
+                   "has a summary or a checkpoint")
+    p.add_argument("--checkpoint-every", type=float, default=CHECKPOINT_EVERY,
+                   help="s of wall time between checkpoints of an unfinished run (0: none)")
     return p
 
 
@@ -523,7 +581,8 @@ def main(argv=None) -> int:
             print(f"run {params['id']}: finished earlier, reused (--rerun to run it again)", file=sys.stderr)
             print(json.dumps(json.loads(done.read_text())))
             return 0
-        summary = main_run(params, a.threads, runs, Path(a.bed_dir), a.vtk)
+        summary = main_run(params, a.threads, runs, Path(a.bed_dir), a.vtk, checkpoint_every=a.checkpoint_every,
+                           resume=not a.rerun)
     except ConfigError as e:
         print(f"run: {e}", file=sys.stderr)
         return 2
