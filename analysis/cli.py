@@ -73,7 +73,8 @@ def cmd_compare(args) -> int:
     from analysis import compare_job
     try:
         return compare_job.run(args.preset, args.soils.split(","), [int(s) for s in args.seeds.split(",")],
-                               args.threads, args.parallel, args.runs_dir, args.bed_dir, args.out, args.no_run, args.kept)
+                               args.threads, args.parallel, args.runs_dir, args.bed_dir, args.out, args.no_run, args.kept,
+                               args.scheduler)
     except ConfigError as e:
         print(f"compare: {e}", file=sys.stderr)
         return 2
@@ -265,6 +266,8 @@ def main(argv=None) -> int:
     p.add_argument("--soils", default="clay,loam,sand")
     p.add_argument("--seeds", default="1", help="packing seeds, one run each, e.g. 1,2,3")
     p.add_argument("--parallel", type=int, default=1, help="runs at a time")
+    p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786): the runs go to "
+                   "its workers, as a study's cases do; default: local")
     scene_batch_options(p, 2, "where comparison.csv/.md and comparison/ go (default results)")
     p.add_argument("--no-run", action="store_true", help="measure the finished runs only; run nothing")
     p.add_argument("--kept", action="store_true", help="a run not on this machine but kept beside the table "

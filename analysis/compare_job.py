@@ -26,9 +26,9 @@ from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
 def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, parallel: int = 1,
         runs_dir: Path | None = None, bed_dir: Path | None = None, out: Path | None = None,
-        no_run: bool = False, kept_runs: bool = False) -> int:
+        no_run: bool = False, kept_runs: bool = False, scheduler: str | None = None) -> int:
     """Run what is missing (unless `no_run`: then only the finished runs are measured; with `kept_runs`, runs
-    kept beside the table are not missing), measure, compare."""
+    kept beside the table are not missing; on a Dask cluster's workers with `scheduler`), measure, compare."""
     from scripts.bed import BED_DIR
     runs_dir = Path(runs_dir or ROOT / "results/runs")
     bed_dir = Path(bed_dir or BED_DIR)
@@ -47,7 +47,7 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
             if not finished(runs_dir, b["id"]):
                 say(f"compare: {b['id']} {b['tag']} not run (--no-run); left out")
     else:
-        failures = run_all(batch, parallel, threads, runs_dir, bed_dir, label=f"compare {preset}")
+        failures = run_all(batch, parallel, threads, runs_dir, bed_dir, scheduler=scheduler, label=f"compare {preset}")
 
     tables, summaries, local = [], [], []
     for c in cases:
