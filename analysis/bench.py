@@ -2,16 +2,17 @@
 (configs/studies/speed_vs_error.toml, run as a study), each case's cost beside the error of its hole metrics
 against the finest case and against the field mean (seed 001 Table 3).
 
-    ./holes bench speed-vs-error      ->  results/bench/speed_vs_error.csv and .png
+    ./holes bench speed-vs-error      ->  results/bench/speed_vs_error{,_packings}{.csv,_settings.csv,.png}
     ./holes bench economies           ->  results/bench/economies.csv and .png
 
 Error of a case: for each of L0, L1, L2 and h1 the difference from the reference (mm), and their mean size
 relative to the field's mean of each metric, mean |m - ref| / field (the `err_*_pct` columns). The field mean
 is the scale for both references, since a simulated h1 can be near zero and would make a relative error
 meaningless. A setting (grain radius, time-step factor, contact modulus) may have several packings (bed
-seeds; configs/studies/speed_vs_error_packings.toml): the reference is the finest setting's mean over its
-packings, and `speed_vs_error_settings.csv` sets each setting's mean difference from it beside its standard
-error, the packing scatter a resolution's error must beat. The Pareto plot shows the settings' means.
+seeds; configs/studies/speed_vs_error_packings.toml, its own study and tables): the reference is the finest
+setting's mean over its packings, and `<study>_settings.csv` sets each setting's mean difference from it
+beside its standard error, the packing scatter a resolution's error must beat. The Pareto plot shows the
+settings' means.
 """
 from __future__ import annotations
 
@@ -216,23 +217,30 @@ def run_economies(workers: int, threads: int, runs_dir=None, bed_dir=None, out=N
     return code
 
 
-def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_run=False, study_path=STUDY) -> int:
-    """Run the study's cases (finished ones are reused), then write the speed-vs-error table and plot."""
+def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_run=False,
+        study_paths=(STUDY, PACKINGS)) -> int:
+    """Run each study's cases (finished ones are reused), then write its speed-vs-error tables and plot. Studies
+    are not pooled: a study's cases share one soil calibration, and two studies made at different commits need
+    not (speed_vs_error's cases were made with the first calibration's clay bond, its packings study with the
+    third's)."""
     from analysis.compare import field_table
     out = Path(out or ROOT / "results/bench")
-    code, name, table = study_table(study_path, workers, threads, runs_dir, bed_dir, out, no_run)
-    if table is None:
-        return 1
-    code2, _, packings = study_table(PACKINGS, workers, threads, runs_dir, bed_dir, out, no_run)
-    t = errors(pd.concat([table, packings]), field_table()) if packings is not None else errors(table, field_table())
-    note = stamp("./holes bench speed-vs-error")
-    cols = ["run", "soil", "seed", "resolution", "radius_mm", "dt_safety", "young_pa", "particles", "steps", "wall_s",
-            "threads", "particle_steps_per_s", *METRICS, *(f"{m}_vs_finest" for m in METRICS),
-            *(f"{m}_vs_field" for m in METRICS), "err_finest_pct", "err_field_pct", "reference", "machine"]
-    atomic_csv(t[cols].round(4), out / f"{name}.csv", note)
-    s = settings(t)
-    atomic_csv(s.round(4), out / f"{name}_settings.csv", note)
-    plot(s, out / f"{name}.png", note)
-    print(s[["resolution", *SETTING, "packings", "particles", "wall_s", *METRICS, *(f"d{m}" for m in METRICS),
-             *(f"d{m}_se" for m in METRICS), "err_finest_pct"]].round(1).to_string(index=False))
-    return code or code2
+    codes = []
+    for study_path in study_paths:
+        code, name, table = study_table(study_path, workers, threads, runs_dir, bed_dir, out, no_run)
+        codes.append(code if table is not None else 1)
+        if table is None:
+            continue
+        t = errors(table, field_table())
+        note = stamp("./holes bench speed-vs-error")
+        cols = ["run", "soil", "seed", "resolution", "radius_mm", "dt_safety", "young_pa", "particles", "steps",
+                "wall_s", "threads", "particle_steps_per_s", *METRICS, *(f"{m}_vs_finest" for m in METRICS),
+                *(f"{m}_vs_field" for m in METRICS), "err_finest_pct", "err_field_pct", "reference", "machine"]
+        atomic_csv(t[cols].round(4), out / f"{name}.csv", note)
+        st = settings(t)
+        atomic_csv(st.round(4), out / f"{name}_settings.csv", note)
+        plot(st, out / f"{name}.png", note)
+        print(f"{name}:")
+        print(st[["resolution", *SETTING, "packings", "particles", "wall_s", *METRICS, *(f"d{m}" for m in METRICS),
+                  *(f"d{m}_se" for m in METRICS), "err_finest_pct"]].round(1).to_string(index=False))
+    return max(codes)
