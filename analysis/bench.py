@@ -73,14 +73,13 @@ def settings(t: pd.DataFrame) -> pd.DataFrame:
     """One row per setting of the `errors` table, its packings pooled: their number, mean cost, each metric's
     mean and SD, and the mean's difference from the finest setting's mean (`d<m>`) with its standard error
     (`d<m>_se`, from both settings' packing SDs; empty where either has one packing)."""
-    g = t.groupby(SETTING, sort=False)
-    s = g.agg(resolution=("resolution", "first"), packings=("run", "size"), runs=("run", " ".join),
-              particles=("particles", "mean"), steps=("steps", "mean"), wall_s=("wall_s", "mean"),
-              particle_steps_per_s=("particle_steps_per_s", "mean"),
-              **{m: (m, "mean") for m in METRICS}, **{f"{m}_sd": (m, "std") for m in METRICS},
-              **{f"{m}_field": (m, "first") for m in METRICS}).reset_index()
-    for m in METRICS:                                   # the field mean, recovered from the case's difference
-        s[f"{m}_field"] = (t[m] - t[f"{m}_vs_field"]).groupby([t[k] for k in SETTING], sort=False).first().to_numpy()
+    field = t.assign(**{f"{m}_field": t[m] - t[f"{m}_vs_field"] for m in METRICS})   # the case's field mean
+    s = field.groupby(SETTING, sort=False).agg(
+        resolution=("resolution", "first"), packings=("run", "size"), runs=("run", " ".join),
+        particles=("particles", "mean"), steps=("steps", "mean"), wall_s=("wall_s", "mean"),
+        particle_steps_per_s=("particle_steps_per_s", "mean"),
+        **{m: (m, "mean") for m in METRICS}, **{f"{m}_sd": (m, "std") for m in METRICS},
+        **{f"{m}_field": (f"{m}_field", "first") for m in METRICS}).reset_index()
     ref = s[s.runs.str.split().map(set) == set(t.reference.iloc[0].split())].iloc[0]
     for m in METRICS:
         s[f"d{m}"] = s[m] - ref[m]
@@ -101,8 +100,8 @@ def pareto(t: pd.DataFrame, err: str) -> pd.Series:
 
 
 def label(r) -> str:
-    n = getattr(r, "packings", 1)
-    return f"r {r.radius_mm:g} mm, dt {r.dt_safety:g}, E {r.young_pa / 1e6:g} MPa" + (f" ({n} packings)" if n > 1 else "")
+    return (f"r {r.radius_mm:g} mm, dt {r.dt_safety:g}, E {r.young_pa / 1e6:g} MPa"
+            + (f" ({r.packings} packings)" if r.packings > 1 else ""))
 
 
 def pyplot():

@@ -48,6 +48,7 @@ SEGMENTS = 16               # facets round a punch or a sleeve
 SLEEVE_CLEARANCE = 1.0      # mm between the punch and the plate's bore
 RECORD_DT = 5e-4            # s of simulated time between records
 CHECKPOINT_EVERY = 600.0    # s of wall time between checkpoints of an unfinished run (0: none)
+CHECKPOINT = "checkpoint.json"   # the run's state, naming the scene file it goes with
 GUARD_EVERY = 200           # steps between stability checks
 GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100   # grains meet grains, walls (mask 1) and tools (bit 2);
 # tools meet grains only: bodies with the same mask sharing a bit with the collider's avoidSelfInteractionMask never meet
@@ -163,7 +164,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                             overrides={k: params["soil"][k] for k in soil.settling_key()}, lateral=preset["lateral"])
     meta = bedmod.load_meta(bed_path)
     out = open_run_folder(out_root, params)
-    saved = out / "checkpoint.json"
+    saved = out / CHECKPOINT
     if not resume:
         drop_checkpoint(out)
 
@@ -330,10 +331,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         builtins.hook = hook
         O.trackEnergy = True
         motion = {e.label: e for e in O.engines}
-        disk_engine = motion["disk_motion"]
-        plate_engines = [motion[f"plate_motion_{k}"] for k in range(disk.N)]
-        advance, rot, sink = disk_engine.comb      # shared with the plates' engines, as they were saved
-        slides = [e.comb[3] for e in plate_engines]
+        _, rot, sink = motion["disk_motion"].comb  # shared with the plates' engines, as they were saved
+        slides = [motion[f"plate_motion_{k}"].comb[3] for k in range(disk.N)]
         law = part.contact_law(O)
         st.update(ck["st"])
         energy0, vmax = ck["energy0"], ck["vmax"]
@@ -397,7 +396,7 @@ def save_checkpoint(out: Path, state: dict):
     tmp = out / f".tmp-{scene}"              # same ending: YADE picks the format by it
     O.save(str(tmp))
     tmp.replace(out / scene)
-    atomic_write(out / "checkpoint.json", json.dumps({**state, "scene": scene}))
+    atomic_write(out / CHECKPOINT, json.dumps({**state, "scene": scene}))
     for old in out.glob("checkpoint-*.yade.gz"):
         if old.name != scene:
             old.unlink()
@@ -405,7 +404,7 @@ def save_checkpoint(out: Path, state: dict):
 
 def drop_checkpoint(out: Path):
     """The checkpoint's files, and any half-written scene file of a process killed while saving."""
-    (out / "checkpoint.json").unlink(missing_ok=True)
+    (out / CHECKPOINT).unlink(missing_ok=True)
     for old in [*out.glob("checkpoint-*.yade.gz"), *out.glob(".tmp-checkpoint-*")]:
         old.unlink()
 
