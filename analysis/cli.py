@@ -214,7 +214,7 @@ def scene_batch_options(p, threads: int, out_help: str):
     p.add_argument("--out", help=out_help)
 
 
-def main(argv=None) -> int:
+def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="holes", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("theory", help="rigid-punch theory: Table 1 and Figs. 5, 6, 8 analogs (seed 001 §2.3)")
@@ -242,7 +242,7 @@ def main(argv=None) -> int:
                                ("duckbeak", "duckbeak.py", "the duck-beak planter (seed 000) through a ridge bed")):
         p = sub.add_parser(name, help=text, add_help=False)
         p.set_defaults(func=lambda a, script=script: run_scene(script, a.rest))
-    p = sub.add_parser("calibrate", help="fit a soil's cohesion to the Table 2 cone index (within 5 %)")
+    p = sub.add_parser("calibrate", help="fit a soil's cohesion to the Table 2 cone index (within 5 %%)")
     p.add_argument("--soil", required=True)
     p.add_argument("--resolution", default="coarse", help="the beds' grains (default: r = 8 mm, as calibrated)")
     p.add_argument("--size", default="450,450,280",
@@ -297,6 +297,11 @@ def main(argv=None) -> int:
     p.add_argument("--no-run", action="store_true",
                    help="speed-vs-error, economies: tabulate the finished cases only; run nothing")
     p.set_defaults(func=cmd_bench)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
     args, rest = parser.parse_known_args(argv)
     if rest and args.command not in ("bed", "cone", "run", "duckbeak"):
         parser.error(f"unrecognized arguments: {' '.join(rest)}")

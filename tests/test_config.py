@@ -64,3 +64,17 @@ def test_theory_runs_on_another_disk(tmp_path, other_disk):
     assert t.paper_mm.isna().all()
     for name in ("table1.csv", "trajectories.png", "hole_contour.png", "slip_length.png"):
         assert (tmp_path / name).stat().st_size > 0
+
+
+def test_every_help_page_prints(capsys):
+    """`./holes --help` and each subcommand's --help format (argparse expands % in help texts). The scene
+    commands (bed, cone, run, duckbeak) hand --help to their script's own parser."""
+    parser = cli.build_parser()
+    commands = next(a for a in parser._actions if a.choices and isinstance(a.choices, dict)).choices
+    own = [name for name, p in commands.items() if p.add_help]
+    assert "calibrate" in own and "run" not in own
+    for argv in ([], *([name] for name in own)):
+        with pytest.raises(SystemExit) as done:
+            parser.parse_args([*argv, "--help"])
+        assert done.value.code == 0, argv
+    assert "calibrate" in capsys.readouterr().out
