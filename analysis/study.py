@@ -21,7 +21,7 @@ import pandas as pd
 
 from analysis.batch import finished, plan_case, run_all, say, scene_args
 from analysis.config import ROOT, ConfigError, load_criteria, read_toml
-from analysis.io import atomic_csv, atomic_write, stamp
+from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
 METRICS = ("L0", "L1", "L2", "h1", "C")
 
@@ -103,6 +103,18 @@ def write_table(name: str, head: dict, cases: list[Case], rows: dict, runs_dir: 
     atomic_csv(table.round(4), out / f"{name}.csv", note)
     plot(table, head, out / f"{name}.png", note)
     return table
+
+
+def committed_rows(table_path: Path, cases: list[Case]) -> dict:
+    """The rows of a study's table already written (and committed) whose run ids are still the study's cases.
+    A run id hashes every parameter, soil constants included, so a row is reused only for the same run; the
+    runs/ folders are not committed, so on a new machine these rows are all that is left of finished cases."""
+    if not table_path.exists():
+        return {}
+    ids = {c.id for c in cases}
+    table = read_table(table_path)
+    return {r["run"]: {k: (None if isinstance(v, float) and np.isnan(v) else v) for k, v in r.items()}
+            for r in table.to_dict("records") if r["run"] in ids}
 
 
 def theory_lines(x: str, values) -> dict[str, dict]:
@@ -200,9 +212,12 @@ def run(paths, workers: int = 1, threads: int = 2, scheduler: str | None = None,
     runs_dir = Path(runs_dir or ROOT / "results/runs")
     bed_dir = Path(bed_dir or BED_DIR)
     out = Path(out or ROOT / "results/studies")
-    batch, members, rows = {}, {}, {name: {} for name in names}
+    rows = {head["name"]: committed_rows(out / f"{head['name']}.csv", cases) for _, head, cases in studies}
+    batch, members = {}, {}
     for path, head, cases in studies:
         for c in cases:
+            if c.id in rows[head["name"]]:
+                continue
             batch.setdefault(c.id, {"id": c.id, "args": scene_args(c.fields), "tag": f"[{head['name']} {c.label()}]"})
             members.setdefault(c.id, []).append((path, head, cases))
 

@@ -135,3 +135,24 @@ def test_a_slip_study_plots_the_theory_beside_the_holes(tmp_path):
     plot(table, {"name": "slip"}, tmp_path / "slip.png", "test")
     assert (tmp_path / "slip.png").stat().st_size > 10_000
     assert (tmp_path / "slip_depth.png").stat().st_size > 10_000      # l_H beside Table 1
+
+
+def test_a_committed_table_keeps_its_cases_on_a_new_machine(tmp_path, monkeypatch):
+    """runs/ is not committed: on a new clone a study reruns only the cases missing from its table, and the
+    table it rewrites keeps the rows it already had (same run id = same parameters, soil constants included)."""
+    from analysis import study as study_mod
+    from analysis.io import atomic_csv
+    import pandas as pd
+    path = study_file(tmp_path, "kept", {"slip": [0.0, 0.1]})
+    _, cases = load_study(path)
+    out = tmp_path / "out"
+    atomic_csv(pd.DataFrame([{"slip": 0.0, "run": cases[0].id, "L0": 101.5, "L1": float("nan")},
+                             {"slip": 0.3, "run": "clay-test-prescribed-0ldca5e0", "L0": 99.0}]),
+               out / "kept.csv", "an earlier machine")
+    batches, written = [], []
+    monkeypatch.setattr(study_mod, "run_all", lambda batch, *a, **k: batches.append(batch) or [])
+    monkeypatch.setattr(study_mod, "plot", lambda table, *a: written.append(table))
+    study_mod.run(path, 1, 1, runs_dir=tmp_path / "runs", bed_dir=tmp_path / "beds", out=out)
+    assert [c["id"] for c in batches[0]] == [cases[1].id]           # the committed case is not run again
+    kept = read_table(out / "kept.csv")
+    assert list(kept.run) == [cases[0].id] and kept.L0[0] == 101.5   # a row of another case is not kept
