@@ -137,7 +137,7 @@ def test_a_slip_study_plots_the_theory_beside_the_holes(tmp_path):
     assert (tmp_path / "slip_depth.png").stat().st_size > 10_000      # l_H beside Table 1
 
 
-def test_a_committed_table_keeps_its_cases_on_a_new_machine(tmp_path, monkeypatch):
+def test_a_committed_table_keeps_its_cases_on_a_new_machine(tmp_path, monkeypatch, capsys):
     """runs/ is not committed: on a new clone a study reruns only the cases missing from its table, and the
     table it rewrites keeps the rows it already had (same run id = same parameters, soil constants included)."""
     from analysis import study as study_mod
@@ -156,3 +156,4 @@ def test_a_committed_table_keeps_its_cases_on_a_new_machine(tmp_path, monkeypatc
     assert [c["id"] for c in batches[0]] == [cases[1].id]           # the committed case is not run again
     kept = read_table(out / "kept.csv")
     assert list(kept.run) == [cases[0].id] and kept.L0[0] == 101.5   # a row of another case is not kept
+    assert "1 of its rows are runs this study no longer makes" in capsys.readouterr().err
