@@ -113,7 +113,7 @@ def test_energy_balance_closes(two_holes):
 
 
 def test_periodic_strip_forms_a_measured_hole_without_side_walls(side_scenes, scene_dirs):
-    """The strip periodic across the travel (the default and paper presets' sides): the punch reaches its
+    """The strip periodic across the travel (the paper preset's sides): the punch reaches its
     depth, the sleeve works, no grain is lost, positions come back wrapped into the cell's width, and the hole
     is measured (test_bed checks that a periodic bed has no wall layer at its sides)."""
     from analysis import measure
