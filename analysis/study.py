@@ -118,8 +118,7 @@ def committed_rows(table_path: Path, cases: list[Case]) -> dict:
         say(f"{table_path}: {len(stale)} of its rows are runs this study no longer makes (other parameters, such as "
             f"an earlier calibration's soil); the rewritten table leaves them out (git history keeps them): "
             f"{', '.join(stale)}")
-    return {r["run"]: {k: (None if isinstance(v, float) and np.isnan(v) else v) for k, v in r.items()}
-            for r in table.to_dict("records") if r["run"] in ids}
+    return {r["run"]: r for r in table.to_dict("records") if r["run"] in ids}
 
 
 def theory_lines(x: str, values) -> dict[str, dict]:

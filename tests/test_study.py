@@ -157,3 +157,4 @@ def test_a_committed_table_keeps_its_cases_on_a_new_machine(tmp_path, monkeypatc
     kept = read_table(out / "kept.csv")
     assert list(kept.run) == [cases[0].id] and kept.L0[0] == 101.5   # a row of another case is not kept
     assert "1 of its rows are runs this study no longer makes" in capsys.readouterr().err
+    assert written[0].L1.dtype == float          # a missing value stays NaN (None made the plot fail)
