@@ -198,7 +198,8 @@ def plot(table: pd.DataFrame, holes: pd.DataFrame, field: pd.DataFrame, preset: 
             col = "pass_percent" if m.startswith("pass") else m
             fv = field[(field.soil == r.soil) & (field.run != "mean")][col]
             ax.plot(np.full(len(fv), i - 0.12), fv, "ko", ms=4, label="field runs" if i == 0 else None)
-            ax.errorbar(i + 0.12, r.sim_mean, yerr=[[r.sim_mean - r.ci_lo], [r.ci_hi - r.sim_mean]], fmt="s",
+            ci = None if pd.isna(r.ci_lo) else [[r.sim_mean - r.ci_lo], [r.ci_hi - r.sim_mean]]  # none from one value
+            ax.errorbar(i + 0.12, r.sim_mean, yerr=ci, fmt="s",
                         color="C0", capsize=4, label="simulated mean, 95 % CI" if i == 0 else None)
             if not m.startswith("pass"):
                 hv = holes[holes.soil == r.soil][m].dropna()
