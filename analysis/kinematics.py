@@ -80,9 +80,21 @@ class Layout:
     lead_in: int              # the first `lead_in` holes are formed but not measured
     hole_rear: float          # hole extent behind / in front of its centre, from the swept outline
     hole_front: float
+    tool_front: float         # farthest x any punch reaches in the soil before t_end (the next punch's, entering)
     length: float             # bed length, from x = 0
     t_end: float
     pitch: float              # 2π/N: punch k leads punch 0 by k·pitch
+
+
+def tool_reach(outline: np.ndarray, H0: float, omega: float, speed: float, x_axis0: float, phi0: float,
+               N: int, t_end: float, samples: int = 4001):
+    """(rearmost, farthest) x of any of the N punches' parts below the surface during 0 <= t <= t_end: punch k
+    is at φ = phi0 + 2πk/N - ω t (wrapped to ±π), the axis at x_axis0 + v t."""
+    t = np.linspace(0.0, t_end, samples)
+    phi = (phi0 + 2 * np.pi * np.arange(N)[:, None] / N - omega * t[None, :] + np.pi) % (2 * np.pi) - np.pi
+    lo, hi = in_soil_range(outline, phi.ravel(), H0)
+    x_axis = np.tile(x_axis0 + speed * t, N)
+    return float(np.nanmin(lo + x_axis)), float(np.nanmax(hi + x_axis))
 
 
 def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, lead_in: int = 0, run_out: float = 30.0,
@@ -90,8 +102,9 @@ def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, lead_in: int =
     """Place the disk so that punch 0 is the first to touch the bed (at x >= 0) and the punch already in the
     soil at t = 0 stays `gap` mm clear of it. `lead_in` + `holes` holes are formed; the first `lead_in` are
     not measured, because the first hole of a strip has no heave of a predecessor in front of it (measured:
-    quick runs' first holes were 31 mm longer than the second). The bed ends `run_out` mm past the last
-    hole's front."""
+    quick runs' first holes were 31 mm longer than the second). The bed ends `run_out` mm past the farthest
+    point a punch reaches in the soil before t_end: the next punch enters while the last hole's punch is still
+    in (in soil over 2·φ_in > 2π/N), so that is its front, not the last hole's."""
     outline = punch_outline(disk, tip_sphere)
     tip_reach = float(outline[:, 0].max())
     H0 = tip_reach - disk.penetration
@@ -115,8 +128,9 @@ def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, lead_in: int =
         raise ConfigError(f"holes overlap: spacing {2 * np.pi * adv / disk.N:.1f} mm is shorter than a hole "
                           f"({hole_rear + hole_front:.1f} mm) plus the {gap:g} mm gap; allowed: slip or N smaller")
     hole_x = tuple(float(x_axis0 + adv * (phi0 + k * pitch)) for k in range(lead_in + holes))
-    length = hole_x[-1] + hole_front + run_out
     t_end = (phi0 + (len(hole_x) - 1) * pitch - phi_out + np.radians(STOP_MARGIN_DEG)) / omega
+    _, tool_front = tool_reach(outline, H0, omega, speed, x_axis0, phi0, disk.N, t_end)
+    length = max(hole_x[-1] + hole_front, tool_front) + run_out
     return Layout(omega=omega, speed=speed, slip=slip, H0=H0, tip_reach=tip_reach, phi_in=phi_in, phi_out=phi_out,
                   phi0=float(phi0), x_axis0=float(x_axis0), hole_x=hole_x, lead_in=lead_in, hole_rear=hole_rear,
-                  hole_front=hole_front, length=float(length), t_end=float(t_end), pitch=float(pitch))
+                  hole_front=hole_front, tool_front=tool_front, length=float(length), t_end=float(t_end), pitch=float(pitch))

@@ -104,7 +104,11 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
               "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}
     if weight is not None:                  # only then: the ids of runs without a weight stay as they were
         params["weight"] = weight
-    params["id"] = run_id({k: v for k, v in params.items() if k != "layout"})
+    # the layout is in the id, rounded (the last bits of its trigonometry may differ between machines), so a
+    # change of the geometry's code is a new run, never a reused folder
+    rounded = {k: ([round(x, 6) for x in v] if isinstance(v, list) else round(v, 6))
+               for k, v in params["layout"].items()}
+    params["id"] = run_id({**params, "layout": rounded})
     return params
 
 

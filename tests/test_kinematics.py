@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from analysis.config import ConfigError, load_disk, load_preset, load_sleeve, sleeve_from_dict, as_dict
-from analysis.kinematics import layout, punch_outline, to_axis_frame
+from analysis.kinematics import TIP_SPHERE_RATIO, layout, punch_outline, to_axis_frame
 from analysis.metrology import deficit_centres
 from analysis.theory import hole_spacing, swept_extent
 
@@ -18,9 +18,34 @@ def test_holes_fall_at_the_theoretical_spacing_inside_the_strip(slip):
     assert len(lay.hole_x) == 3 and lay.lead_in == 1
     assert np.diff(lay.hole_x) == pytest.approx([hole_spacing(DISK, slip)] * 2, abs=1e-9)
     assert lay.hole_x[0] - lay.hole_rear > 0                       # the first hole lies wholly in the bed
-    assert lay.length == pytest.approx(lay.hole_x[-1] + lay.hole_front + 100.0)
+    assert lay.length == pytest.approx(max(lay.hole_x[-1] + lay.hole_front, lay.tool_front) + 100.0)
     lo, hi = swept_extent(DISK, slip, [0.0])                         # the same swept hole as the theory's
     assert lay.hole_rear + lay.hole_front == pytest.approx(hi[0] - lo[0], abs=3.0)
+
+
+@pytest.mark.parametrize("preset,slip", [("quick", 0.0), ("paper", 0.0), ("test", 0.0), ("paper", 0.2)])
+def test_every_punch_in_the_soil_before_the_end_stays_inside_the_bed(preset, slip):
+    """The punch after the last hole enters while that hole's punch is still in the soil; the bed must hold it
+    (it once swept through the end wall and crushed grains against it). Checked on a densified outline, punch by
+    punch, independently of layout's own sweep."""
+    p = load_preset(preset)
+    lay = layout(DISK, DISK.speed_kmh, slip, p.holes, p.lead_in, p.run_out, tip_sphere=TIP_SPHERE_RATIO * DISK.d)
+    out = punch_outline(DISK, TIP_SPHERE_RATIO * DISK.d)
+    f = np.linspace(0.0, 1.0, 20, endpoint=False)[:, None, None]
+    dense = (out[None] + f * (np.roll(out, -1, axis=0)[None] - out[None])).reshape(-1, 2)
+    t = np.linspace(0.0, lay.t_end, 3000)
+    front = []
+    for k in range(DISK.N):
+        phi = lay.phi0 + k * lay.pitch - lay.omega * t
+        x, z = to_axis_frame(dense, phi)
+        x = (x + (lay.x_axis0 + lay.speed * t)[:, None])[(z < -lay.H0) & (np.cos(phi) > 0)[:, None]]
+        if x.size == 0:
+            continue
+        # the punch that trails punch 0 is in the soil at t = 0 behind the bed's start and never reaches it
+        assert x.min() >= 0.0 or x.max() <= -5.0, f"punch {k} crosses the bed's start"
+        front.append(x.max())
+    assert max(front) <= lay.length - p.run_out + 0.5               # ahead: run_out of soil past every punch
+    assert max(front) > lay.hole_x[-1] + lay.hole_front + 50.0      # the next punch is in the soil at the end
 
 
 def test_blunt_tip_reaches_the_penetration_and_the_outline_is_closed():
