@@ -134,3 +134,19 @@ def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, lead_in: int =
     return Layout(omega=omega, speed=speed, slip=slip, H0=H0, tip_reach=tip_reach, phi_in=phi_in, phi_out=phi_out,
                   phi0=float(phi0), x_axis0=float(x_axis0), hole_x=hole_x, lead_in=lead_in, hole_rear=hole_rear,
                   hole_front=hole_front, tool_front=tool_front, length=float(length), t_end=float(t_end), pitch=float(pitch))
+
+
+def slip_between_holes(theta, x_axis, phi0: float, pitch: float, R: float, n_holes: int) -> list:
+    """Slip δ of each pair of consecutive holes, as their spacing gives it (eq 1: the axis advances
+    C = R(1 - δ)·2π/N while the disk turns one pitch): δ = 1 - Δx / (R·pitch), Δx being the axis advance
+    between the instants punches k and k + 1 point straight down (turned θ = φ0 + k·pitch). theta (rad) and
+    x_axis (mm) are a run's records; pairs outside them are left out. Prescribed rolling gives the set slip."""
+    theta, x_axis = np.asarray(theta, float), np.asarray(x_axis, float)
+    if theta.size == 0:
+        return []
+    order = np.argsort(theta, kind="stable")
+    theta, x_axis = theta[order], x_axis[order]
+    turned = phi0 + pitch * np.arange(n_holes)
+    inside = (turned >= theta[0]) & (turned <= theta[-1])
+    x = np.interp(turned, theta, x_axis)
+    return [float(1.0 - (x[k + 1] - x[k]) / (R * pitch)) for k in range(n_holes - 1) if inside[k] and inside[k + 1]]

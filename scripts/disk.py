@@ -42,7 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.config import (ROOT, ConfigError, Field, as_dict, load_disk, load_preset, load_sleeve,  # noqa: E402
                              load_soil, parse_overrides, preset_with, soil_with, tool_with)
 from analysis.io import atomic_write  # noqa: E402
-from analysis.kinematics import TIP_SPHERE_RATIO, layout  # noqa: E402
+from analysis.kinematics import TIP_SPHERE_RATIO, layout, slip_between_holes  # noqa: E402
 
 SEGMENTS = 16               # facets round a punch or a sleeve
 SLEEVE_CLEARANCE = 1.0      # mm between the punch and the plate's bore
@@ -384,6 +384,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                "tip_min_depth_mm": [-1000 * z for z in st["tip_min"][:len(lay.hole_x)]],
                "sleeve_max_travel_mm": [1000 * s for s in st["s_max"][:len(lay.hole_x)]],
                "slip_out": 1 - v / (st["theta"] / O.time * disk.R * mm) if O.time > 0 else None,
+               "slip_holes": slip_between_holes([math.radians(r[3]) for r in st["rows"]], [r[1] / mm for r in st["rows"]],
+                                                lay.phi0, lay.pitch, disk.R, len(lay.hole_x)),
                "axis_sink_mm": ({"final": -1000 * st["z"], "max": -1000 * st["z_min"], "min": -1000 * st["z_max"]}
                                 if weight else None),   # below the prescribed height; < 0: above it
                "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids), "energy_J": energy}

@@ -29,7 +29,9 @@ def run_scene(tmp, *args, expect_ok=True, dirs=None):
 # one-thread scene leaves idle.
 FREE = ["--soil", "clay", "--holes", "1", "--lead-in", "0", "--mode", "free", "--threads", "1"]
 SIDE_SCENES = {                                 # name: (arguments, whether the run must finish)
-    "low-resistance": ([*FREE, "--set", "normal_cohesion=0", "--set", "shear_cohesion=0"], True),
+    # two holes: the slip between them covers one whole pitch, every phase of entry and exit once (over the
+    # whole run the next punch's entry at the end brakes the disk: slip_out -0.15 here against -0.06)
+    "low-resistance": ([*FREE, "--holes", "2", "--set", "normal_cohesion=0", "--set", "shear_cohesion=0"], True),
     "light": ([*FREE, "--depth", "160", "--weight", "100"], True),
     "heavy": ([*FREE, "--depth", "160", "--weight", "2000"], False),
     # the coarsest grains (800 of them, about a minute): the side scenes must end within test_compare's scene
@@ -76,8 +78,10 @@ def test_spacing_is_2piR_over_N_and_no_grain_is_lost(two_holes):
 
 
 def test_free_rolling_at_low_resistance_rolls_without_slip(side_scenes):
+    """Without bonds the free disk turns nearly at the rolling rate: the slip its hole spacing gives (eq 1) is
+    small."""
     summary = json.loads(side_scenes["low-resistance"].result().stdout.strip().splitlines()[-1])
-    assert abs(summary["slip_out"]) < 0.1
+    assert len(summary["slip_holes"]) == 1 and abs(summary["slip_holes"][0]) < 0.1
 
 
 def test_weight_sets_the_penetration(side_scenes):

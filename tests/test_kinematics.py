@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from analysis.config import ConfigError, load_disk, load_preset, load_sleeve, sleeve_from_dict, as_dict
-from analysis.kinematics import TIP_SPHERE_RATIO, layout, punch_outline, to_axis_frame
+from analysis.kinematics import TIP_SPHERE_RATIO, layout, punch_outline, slip_between_holes, to_axis_frame
 from analysis.metrology import deficit_centres
 from analysis.theory import hole_spacing, swept_extent
 
@@ -46,6 +46,16 @@ def test_every_punch_in_the_soil_before_the_end_stays_inside_the_bed(preset, sli
         front.append(x.max())
     assert max(front) <= lay.length - p.run_out + 0.5               # ahead: run_out of soil past every punch
     assert max(front) > lay.hole_x[-1] + lay.hole_front + 50.0      # the next punch is in the soil at the end
+
+
+def test_slip_between_holes_recovers_eq_1():
+    """Records of a disk turning at ω = v / (R(1 - δ)) give δ back from the axis advance between two holes; a
+    pair outside the records is left out."""
+    lay = layout(DISK, 1.9, 0.15, 2, lead_in=1, run_out=100.0, tip_sphere=5.0)
+    t = np.linspace(0.0, lay.t_end, 500)
+    theta, x = lay.omega * t, lay.x_axis0 + lay.speed * t
+    assert slip_between_holes(theta, x, lay.phi0, lay.pitch, DISK.R, 3) == pytest.approx([0.15, 0.15], abs=1e-3)
+    assert len(slip_between_holes(theta, x, lay.phi0, lay.pitch, DISK.R, 4)) == 2
 
 
 def test_blunt_tip_reaches_the_penetration_and_the_outline_is_closed():
