@@ -86,15 +86,14 @@ class Layout:
     pitch: float              # 2π/N: punch k leads punch 0 by k·pitch
 
 
-def tool_reach(outline: np.ndarray, H0: float, omega: float, speed: float, x_axis0: float, phi0: float,
-               N: int, t_end: float, samples: int = 4001):
-    """(rearmost, farthest) x of any of the N punches' parts below the surface during 0 <= t <= t_end: punch k
-    is at φ = phi0 + 2πk/N - ω t (wrapped to ±π), the axis at x_axis0 + v t."""
+def farthest_in_soil(outline: np.ndarray, H0: float, omega: float, speed: float, x_axis0: float, phi0: float,
+                     N: int, t_end: float, samples: int = 4001) -> float:
+    """The farthest x that any of the N punches' parts below the surface reaches during 0 <= t <= t_end:
+    punch k is at φ = phi0 + 2πk/N - ω t (wrapped to ±π), the axis at x_axis0 + v t."""
     t = np.linspace(0.0, t_end, samples)
     phi = (phi0 + 2 * np.pi * np.arange(N)[:, None] / N - omega * t[None, :] + np.pi) % (2 * np.pi) - np.pi
-    lo, hi = in_soil_range(outline, phi.ravel(), H0)
-    x_axis = np.tile(x_axis0 + speed * t, N)
-    return float(np.nanmin(lo + x_axis)), float(np.nanmax(hi + x_axis))
+    _, hi = in_soil_range(outline, phi.ravel(), H0)
+    return float(np.nanmax(hi + np.tile(x_axis0 + speed * t, N)))
 
 
 def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, lead_in: int = 0, run_out: float = 30.0,
@@ -129,7 +128,7 @@ def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, lead_in: int =
                           f"({hole_rear + hole_front:.1f} mm) plus the {gap:g} mm gap; allowed: slip or N smaller")
     hole_x = tuple(float(x_axis0 + adv * (phi0 + k * pitch)) for k in range(lead_in + holes))
     t_end = (phi0 + (len(hole_x) - 1) * pitch - phi_out + np.radians(STOP_MARGIN_DEG)) / omega
-    _, tool_front = tool_reach(outline, H0, omega, speed, x_axis0, phi0, disk.N, t_end)
+    tool_front = farthest_in_soil(outline, H0, omega, speed, x_axis0, phi0, disk.N, t_end)
     length = max(hole_x[-1] + hole_front, tool_front) + run_out
     return Layout(omega=omega, speed=speed, slip=slip, H0=H0, tip_reach=tip_reach, phi_in=phi_in, phi_out=phi_out,
                   phi0=float(phi0), x_axis0=float(x_axis0), hole_x=hole_x, lead_in=lead_in, hole_rear=hole_rear,
