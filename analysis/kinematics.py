@@ -86,16 +86,6 @@ class Layout:
     pitch: float              # 2π/N: punch k leads punch 0 by k·pitch
 
 
-def farthest_in_soil(outline: np.ndarray, H0: float, omega: float, speed: float, x_axis0: float, phi0: float,
-                     N: int, t_end: float, samples: int = 4001) -> float:
-    """The farthest x that any of the N punches' parts below the surface reaches during 0 <= t <= t_end:
-    punch k is at φ = phi0 + 2πk/N - ω t (wrapped to ±π), the axis at x_axis0 + v t."""
-    t = np.linspace(0.0, t_end, samples)
-    phi = (phi0 + 2 * np.pi * np.arange(N)[:, None] / N - omega * t[None, :] + np.pi) % (2 * np.pi) - np.pi
-    _, hi = in_soil_range(outline, phi.ravel(), H0)
-    return float(np.nanmax(hi + np.tile(x_axis0 + speed * t, N)))
-
-
 def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, lead_in: int = 0, run_out: float = 30.0,
            tip_sphere: float = 0.0, gap: float = 10.0) -> Layout:
     """Place the disk so that punch 0 is the first to touch the bed (at x >= 0) and the punch already in the
@@ -118,7 +108,8 @@ def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, lead_in: int =
     phi0 = phi_in + np.radians(START_MARGIN_DEG)
     # the swept hole, relative to the axis position at which the punch points straight down
     hole_rear = float(-np.nanmin(lo - adv * phis))
-    hole_front = float(np.nanmax(hi - adv * phis))
+    swept_front = hi - adv * phis            # the in-soil front relative to the axis x when the punch points down
+    hole_front = float(np.nanmax(swept_front))
     # the punch that trails punch 0 is in the soil at t = 0 (its angle phi0 - pitch, if > phi_out)
     trail = (phis <= phi0 - pitch) & touching
     x_trail = float(np.max(hi[trail] + adv * (phi0 - pitch - phis[trail]))) if trail.any() else -np.inf
@@ -128,7 +119,11 @@ def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, lead_in: int =
                           f"({hole_rear + hole_front:.1f} mm) plus the {gap:g} mm gap; allowed: slip or N smaller")
     hole_x = tuple(float(x_axis0 + adv * (phi0 + k * pitch)) for k in range(lead_in + holes))
     t_end = (phi0 + (len(hole_x) - 1) * pitch - phi_out + np.radians(STOP_MARGIN_DEG)) / omega
-    tool_front = farthest_in_soil(outline, H0, omega, speed, x_axis0, phi0, disk.N, t_end)
+    # at t_end punch k is at phi_end + k·pitch; its front so far is its swept front over the angles it has passed
+    phi_end = phi0 - omega * t_end
+    passed = [touching & (phis >= phi_end + k * pitch) for k in range(disk.N)]
+    tool_front = max(float(x_axis0 + adv * (phi0 + k * pitch) + np.max(swept_front[m]))
+                     for k, m in enumerate(passed) if m.any())
     length = max(hole_x[-1] + hole_front, tool_front) + run_out
     return Layout(omega=omega, speed=speed, slip=slip, H0=H0, tip_reach=tip_reach, phi_in=phi_in, phi_out=phi_out,
                   phi0=float(phi0), x_axis0=float(x_axis0), hole_x=hole_x, lead_in=lead_in, hole_rear=hole_rear,
