@@ -49,8 +49,8 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
     else:
         failures = run_all(batch, parallel, threads, runs_dir, bed_dir, scheduler=scheduler, label=f"compare {preset}")
 
-    tables, summaries, local = [], [], []
-    for c in cases:
+    tables, summaries, local, missing = [], [], [], []
+    for c, f in zip(cases, fields):
         if finished(runs_dir, c["id"]):
             tables.append(measure.run(runs_dir / c["id"]))
             keep(runs_dir / c["id"], kept / c["id"])
@@ -59,6 +59,7 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
             say(f"compare: {c['id']} is not on this machine; its holes as measured earlier ({kept / c['id']})")
             tables.append(read_table(kept / c["id"] / "holes.csv"))
         else:
+            missing.append(f"{f['soil']} seed {f['seed']} ({c['id']})")
             continue
         if (kept / c["id"] / "summary.json").exists():
             summaries.append(json.loads((kept / c["id"] / "summary.json").read_text()))
@@ -71,7 +72,8 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
     table.insert(0, "preset", preset)
     command = (f"./holes compare --preset {preset} --soils {','.join(soils)} --seeds {','.join(map(str, seeds))}"
                + " --no-run" * no_run + " --kept" * kept_runs)
-    write(out, preset, holes, table, field, pd.DataFrame(summaries), criteria, runs_dir, local, seeds, command)
+    write(out, preset, holes, table, field, pd.DataFrame(summaries), criteria, runs_dir, local, seeds, command,
+          missing)
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures else 0
@@ -83,7 +85,9 @@ def keep(folder: Path, to: Path):
         atomic_write(to / name, (folder / name).read_text())
 
 
-def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, local, seeds, command: str):
+def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, local, seeds, command: str,
+          missing: list[str]):
+    """The table, its plots and pictures; `missing` names the asked cases with no finished run (failed or not run)."""
     note = stamp(command)
     folder = out / "comparison"
     folder.mkdir(parents=True, exist_ok=True)
@@ -99,6 +103,8 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     if earlier:
         cost += (f" Not on this machine, their holes read as measured earlier (comparison/runs/): "
                  f"{', '.join(earlier)}.")
+    if missing:
+        cost += f" Asked for but not in this table (no finished run: failed or not run): {', '.join(missing)}."
     order = compare.ordering(table)
     overlap = " (not resolved: the soils' 95 % intervals overlap)"
     order_text = "; ".join(f"{m}: field clay > loam > sand {'yes' if o['field'] else 'no'}, simulated "

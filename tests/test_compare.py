@@ -40,6 +40,11 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     assert again.returncode == 0 and "not on this machine" in again.stderr, again.stderr[-3000:]
     assert read_table(tmp_path / "comparison.csv").equals(table)
     assert "Not on this machine" in (tmp_path / "comparison.md").read_text()
+    partial = compare("--soils", "clay,sand", "--no-run", "--kept", dirs=(tmp_path / "elsewhere", scene_dirs[1]),
+                      out=tmp_path)                           # sand was never run: the table says it is missing
+    assert partial.returncode == 0, partial.stderr[-3000:]
+    assert "not in this table" in (tmp_path / "comparison.md").read_text().split("| soil |")[0]
+    assert "sand seed 1" in (tmp_path / "comparison.md").read_text().split("| soil |")[0]
     without = compare("--soils", "clay", "--no-run", dirs=(tmp_path / "elsewhere", scene_dirs[1]), out=tmp_path)
     assert without.returncode == 1 and "no run finished" in without.stderr     # kept runs only on asking
 
