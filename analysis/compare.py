@@ -122,6 +122,29 @@ def field_consistency(field: pd.DataFrame, criteria: dict) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def depth_reach(field: pd.DataFrame, holes: pd.DataFrame, bound: float) -> pd.DataFrame:
+    """How far below the undisturbed surface each hole's √2·a2 level lies: L2 + h1 (§4.2 counts L2 from the
+    hole's top, which lies h1 below it). A rigid punch at the configured penetration cannot cut that level
+    deeper than its swept envelope's L2, `bound` (theory_values), whatever the soil does. One row per field
+    run, then one per simulated soil (mean and SD over its holes).
+
+    >>> f = pd.DataFrame({"soil": ["clay", "clay"], "run": ["1", "mean"], "L2": [63.8, 62.1], "h1": [12.4, 13.5]})
+    >>> h = pd.DataFrame({"soil": ["clay", "clay"], "L2": [52.0, 40.0], "h1": [2.0, 14.0]})
+    >>> depth_reach(f, h, 56.0)[["source", "L2_plus_h1", "beyond_bound"]].values.tolist()
+    [['field run 1', 76.2, 20.2], ['simulated', 54.0, -2.0]]
+    """
+    rows = [{"soil": r.soil, "source": f"field run {r.run}", "L2_plus_h1": r.L2 + r.h1, "sd": math.nan, "n": 1}
+            for r in field[field.run != "mean"].itertuples()]
+    for soil, h in holes.groupby("soil", sort=False):
+        v = (h.L2 + h.h1).dropna()
+        rows.append({"soil": soil, "source": "simulated", "L2_plus_h1": v.mean(),
+                     "sd": v.std(ddof=1) if len(v) > 1 else math.nan, "n": len(v)})
+    out = pd.DataFrame(rows)
+    out["bound"] = bound
+    out["beyond_bound"] = out.L2_plus_h1 - bound
+    return out.round(2)
+
+
 def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: dict[str, dict]) -> pd.DataFrame:
     """One row per soil and metric (and per pass-criteria reading): field mean and range, simulated mean ±
     SD and interval, errors, inside-the-range, theory."""

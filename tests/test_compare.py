@@ -33,6 +33,10 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     for m in table.metric:
         assert (tmp_path / "comparison" / f"test-{m}.png").stat().st_size > 5000
     assert "| clay | L0 |" in (tmp_path / "comparison.md").read_text()
+    reach = read_table(tmp_path / "comparison" / "test-depth_reach.csv")     # L2 + h1 per field run and the run
+    assert len(reach) == 5 and set(reach.soil) == {"clay"}
+    sim = reach[reach.source == "simulated"].iloc[0]
+    assert sim.n == 2 and abs(sim.L2_plus_h1 - (holes.L2 + holes.h1).mean()) < 0.01
     # the run kept beside the table stands in for a run folder this machine does not have
     kept = tmp_path / "comparison" / "runs"
     assert {p.name for p in next(kept.iterdir()).iterdir()} == {"holes.csv", "summary.json", "config.json"}
