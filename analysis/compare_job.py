@@ -113,16 +113,16 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     md = compare.markdown(table.drop(columns="preset"), preset, note + "\n\n" + cost)
     if order_text:
         md += f"\nSoil ordering (clay > loam > sand): {order_text}.\n"
-    bound = compare.theory_values()["envelope"]["L2"]
+    bound = float(table[table.metric == "L2"].theory_envelope.iloc[0])     # the swept envelope's L2
     reach = compare.depth_reach(field[field.soil.isin(set(holes.soil))], holes, bound)
     atomic_csv(reach, folder / f"{preset}-depth_reach.csv", "L2 + h1 per field run and simulated soil; see "
                "analysis/compare.py depth_reach")
-    md += ("\nL2 + h1, the √2·a2 level below the undisturbed surface, against the rigid punch's deepest "
-           f"{bound:.1f} mm: " + "; ".join(
-               f"{soil} field {g[g.source != 'simulated'].L2_plus_h1.min():.1f}–"
-               f"{g[g.source != 'simulated'].L2_plus_h1.max():.1f}, simulated "
-               f"{g[g.source == 'simulated'].L2_plus_h1.iloc[0]:.1f}" for soil, g in reach.groupby("soil", sort=False))
-           + f" mm (`comparison/{preset}-depth_reach.csv`).\n")
+    per_soil = []
+    for soil, g in reach.groupby("soil", sort=False):
+        fld, sim = g[g.source != "simulated"].L2_plus_h1, g[g.source == "simulated"].L2_plus_h1
+        per_soil.append(f"{soil} field {fld.min():.1f}–{fld.max():.1f}, simulated {sim.iloc[0]:.1f}")
+    md += (f"\nL2 + h1, the √2·a2 level below the undisturbed surface, against the rigid punch's deepest "
+           f"{bound:.1f} mm: {'; '.join(per_soil)} mm (`comparison/{preset}-depth_reach.csv`).\n")
     atomic_write(folder / f"{preset}.md", md)
     combined = out / "comparison.csv"
     if combined.exists():
