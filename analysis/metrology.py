@@ -124,7 +124,7 @@ def inscribed_diameter(mask, step: float, probe: float) -> float:
 @dataclass
 class HoleMeasure:
     """One hole, measured as in seed 001 §4.2 (mm). z_open: the level of the opening (subsided surface)."""
-    x: float            # centre along the travel: the centroid of the opening
+    x: float            # centre along the travel: the centroid of the hole's section at its effective depth L2
     h1: float           # subsidence of the pressed surface beside the hole
     L0: float           # opening length along the travel, mean of 4 sections
     L1: float           # opening width across the travel, mean of 4 sections
@@ -149,7 +149,11 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     lie more than D/2 from (xc, yc) is not this punch's hole (e.g. the hole is buried and the region found
     is a trough beside it): the hole is reported not found, with L0, L1, L2 and l_H NaN, so it fails every
     criterion and no mean takes a number that does not describe it. An opening smeared along the travel
-    whose bottom is where the punch went down is the punch's hole, wherever its centroid lies."""
+    whose bottom is where the punch went down is the punch's hole, wherever its centroid lies.
+
+    The hole's centre x (for the spacing C, §4.2's "centre distance of adjacent holes") is the centroid of its
+    section at the effective depth L2, where the seedling's root ball sits, so C is the plant spacing. The
+    opening's centroid is not: a wall the disk drags up on one side moves it a punch radius or more."""
     step = xs[1] - xs[0]
     X, Y = np.meshgrid(xs, ys, indexing="ij")
     side = (np.abs(X - xc) <= D / 4) & (np.abs(Y - yc) >= D / 2 + probe) & (np.abs(Y - yc) <= sleeve_outer / 2)
@@ -179,7 +183,8 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
             L2 = z_open - (prev_z - frac * dz)
             break
         prev_z, prev_d = z, d
-    return HoleMeasure(x_open, h1, L0, L1, L2, z_surface - float(S[seed]), z_open,
+    x_centre = float(X[grow(below <= z_open - L2, seed)].mean())      # holds the seed: L2 <= z_open - S[seed]
+    return HoleMeasure(x_centre, h1, L0, L1, L2, z_surface - float(S[seed]), z_open,
                        tuple(length_at_depth(below, seed, z_surface - H, step, probe) for H in DEPTHS))
 
 
@@ -199,7 +204,7 @@ def measure_state(pos_mm, radius_mm, initial_pos_mm, initial_radius_mm, width: f
     """Every hole of a strip (positions in mm, strip 0 <= y <= width, holes expected at `hole_x` on its
     centreline): a list of HoleMeasure and the undisturbed surface level (the median probed surface of the
     bed before the disk, walls' cells left out). The probe defaults to the mean grain radius; spacing C is
-    the difference of consecutive centres."""
+    the difference of consecutive centres (measure_hole: each at the hole's effective depth)."""
     probe = float(np.mean(radius_mm)) if probe is None else probe
     x_lo, x_hi = float(np.min(initial_pos_mm[:, 0])), float(np.max(initial_pos_mm[:, 0]))
     xs = np.arange(x_lo, x_hi + cell / 2, cell)

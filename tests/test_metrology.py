@@ -63,12 +63,14 @@ def test_a_hole_far_from_where_the_punch_entered_is_not_found():
 
 def test_a_crater_smeared_ahead_of_its_hole_is_found():
     """The hole at x = 150 with a scoop 35 mm deep running on to x = 270: the opening's centroid is
-    about 33 mm ahead of the entry (> D/2), but its bottom is under it, so it is this punch's hole."""
+    about 33 mm ahead of the entry (> D/2), but its bottom is under it, so it is this punch's hole, and its
+    centre, taken at its effective depth, is the hole's, not the scoop's."""
     pos, rad, pos0, rad0 = carved_bed(4.0, 10, 0.2)
     z_top = np.percentile(pos0[:, 2] + rad0, 99)
     pos, rad = carve(pos, rad, 220.0, 80, z_top, 100.0, W, 30.0, 5.0, 0.0, ring=0.0)
     (hole,), _, _ = measure_state(pos, rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
-    assert hole.found and hole.x - 150.0 > 25.0                       # the old centroid rule lost it
+    assert hole.found                                                 # the centroid-only rule lost it
+    assert hole.x == pytest.approx(150.0, abs=4.0)                    # the opening's centroid: ~183
     assert hole.L0 == pytest.approx(four_section_length(166.0, W), abs=2 * 4.0)  # the opening: x 104 ... 270
     assert hole.bottom == pytest.approx(H1 + STRAIGHT + TAPER, abs=2 * 4.0)
 
