@@ -12,13 +12,23 @@ import pandas as pd
 from analysis.config import ROOT
 
 
-def stamp(command: str) -> str:
-    """One provenance line: the command that made a result, the commit and the machine."""
+def head() -> str:
+    """The checked-out commit, short."""
     try:
-        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
-                             text=True, timeout=5).stdout.strip() or "uncommitted"
+        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                              text=True, timeout=5).stdout.strip() or "uncommitted"
     except (OSError, subprocess.SubprocessError):
-        rev = "unknown"
+        return "unknown"
+
+
+LOADED = head()     # the commit whose code this process runs: a long job may outlive a later checkout
+
+
+def stamp(command: str) -> str:
+    """One provenance line: the command that made a result, the commit whose code made it and the machine;
+    if the checkout moved on while the process ran, the line says so."""
+    now = head()
+    rev = LOADED if now == LOADED else f"{LOADED} (the checkout moved to {now} while it ran)"
     return (f"made by `{command}` at commit {rev} on {platform.node() or 'host'} "
             f"({os.cpu_count()} cores), {datetime.date.today().isoformat()}")
 

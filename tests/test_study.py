@@ -158,3 +158,12 @@ def test_a_committed_table_keeps_its_cases_on_a_new_machine(tmp_path, monkeypatc
     assert list(kept.run) == [cases[0].id] and kept.L0[0] == 101.5   # a row of another case is not kept
     assert "1 of its rows are runs this study no longer makes" in capsys.readouterr().err
     assert written[0].L1.dtype == float          # a missing value stays NaN (None made the plot fail)
+
+
+def test_a_stamp_names_the_code_the_process_runs(monkeypatch):
+    """A paper run outlives sessions' commits: its table is stamped with the commit the process loaded, and
+    says so when the checkout moved on while it ran."""
+    from analysis import io
+    assert f"at commit {io.head()} on" in io.stamp("x")
+    monkeypatch.setattr(io, "LOADED", "0000000")
+    assert f"at commit 0000000 (the checkout moved to {io.head()} while it ran) on" in io.stamp("x")
