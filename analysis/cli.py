@@ -69,6 +69,16 @@ def cmd_measure(args) -> int:
     return 0
 
 
+def cmd_rings(args) -> int:
+    from analysis import rings
+    table = rings.run(args.folders, Path(args.out))
+    inner = table[(table.r >= table.band_lo) & (table.r <= table.band_hi)]
+    print(inner.groupby(["run", "hole"], sort=False)[["h1", "plate_depth", "depth"]]
+          .agg({"h1": "first", "plate_depth": "first", "depth": ["min", "max"]}).round(1).to_string())
+    print(f"wrote {args.out}/rings.csv, rings.png")
+    return 0
+
+
 def cmd_compare(args) -> int:
     from analysis import compare_job
     try:
@@ -261,6 +271,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("measure", help="measure the holes of finished runs (L0, L1, L2, h1, C; seed 001 §4.2)")
     p.add_argument("folders", nargs="+", help="results/runs/<id> ...")
     p.set_defaults(func=cmd_measure)
+    p = sub.add_parser("rings", help="the pressed ring beside each hole of finished runs, against the plate's level")
+    p.add_argument("folders", nargs="+", help="results/runs/<id> ...")
+    p.add_argument("--out", default="results/comparison/rings")
+    p.set_defaults(func=cmd_rings)
     p = sub.add_parser("compare", help="the main job: run, measure and set the holes beside the field's Table 3")
     p.add_argument("--preset", default="quick")
     p.add_argument("--soils", default="clay,loam,sand")

@@ -125,7 +125,7 @@ def inscribed_diameter(mask, step: float, probe: float) -> float:
 class HoleMeasure:
     """One hole, measured as in seed 001 §4.2 (mm). z_open: the level of the opening (subsided surface)."""
     x: float            # centre along the travel: the centroid of the hole's section at its effective depth L2
-    h1: float           # subsidence of the pressed surface beside the hole
+    h1: float           # subsidence of the pressed ring beside the hole
     L0: float           # opening length along the travel, mean of 4 sections
     L1: float           # opening width across the travel, mean of 4 sections
     L2: float           # effective depth: opening level down to where the inner diameter falls to √2·a2
@@ -140,8 +140,11 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
                  probe: float, diameter_min: float, dz: float = 1.0) -> HoleMeasure:
     """Measure the hole nearest (xc, yc) on the probed surface S (seed 001 §4.2).
 
-    h1: z_surface minus the median of S beside the hole, where the sleeve pressed (|x - xc| <= D/4 and
-    D/2 + probe <= |y - yc| <= sleeve_outer/2). The opening: the connected cells below the
+    h1: z_surface minus the median of S beside the hole, on the inner half of the ring the sleeve's plate
+    pressed (|x - xc| <= D/4 and D/2 <= |y - yc| <= (D/2 + sleeve_outer/2)/2). Not the whole ring: the soil the
+    punch and plate push aside heaves round the plate, and that rim, standing at the plate's edge, overhangs S
+    by a grain radius plus the probe (up to 10 mm at r = 5 mm), so a band out to the plate's edge reads it
+    (README, issue 5: the pressed ring). The opening: the connected cells below the
     subsided level z_open = z_surface - h1 by more than one probe radius (grain-scale roughness), grown from
     the deepest cell within D/2 of the expected centre. L2: scanning down from z_open in steps dz, the
     region the probe reaches below z (grown from that deepest cell) until its inscribed diameter is no
@@ -156,7 +159,7 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     opening's centroid is not: a wall the disk drags up on one side moves it a punch radius or more."""
     step = xs[1] - xs[0]
     X, Y = np.meshgrid(xs, ys, indexing="ij")
-    side = (np.abs(X - xc) <= D / 4) & (np.abs(Y - yc) >= D / 2 + probe) & (np.abs(Y - yc) <= sleeve_outer / 2)
+    side = (np.abs(X - xc) <= D / 4) & (np.abs(Y - yc) >= D / 2) & (np.abs(Y - yc) <= (D + sleeve_outer) / 4)
     h1 = z_surface - float(np.nanmedian(S[side]))
     z_open = z_surface - h1
     near = np.hypot(X - xc, Y - yc) <= D / 2
@@ -186,6 +189,23 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     x_centre = float(X[grow(below <= z_open - L2, seed)].mean())      # holds the seed: L2 <= z_open - S[seed]
     return HoleMeasure(x_centre, h1, L0, L1, L2, z_surface - float(S[seed]), z_open,
                        tuple(length_at_depth(below, seed, z_surface - H, step, probe) for H in DEPTHS))
+
+
+def side_profile(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, r_max: float, dr: float = 2.0):
+    """Depth below the undisturbed surface beside a hole against the distance from its axis across the travel,
+    on each side: the median of S over the cells within D/4 of xc along the travel (the strip h1 is read in,
+    measure_hole) in bins dr wide from D/2 to r_max. Returns (bin centres, depth[side, bin]), sides -y, +y."""
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    along = np.abs(X - xc) <= D / 4
+    edges = np.arange(D / 2, r_max + dr / 2, dr)
+    depth = np.full((2, len(edges) - 1), np.nan)
+    for k, side in enumerate((-1, 1)):
+        r = side * (Y - yc)
+        for j, (lo, hi) in enumerate(zip(edges[:-1], edges[1:])):
+            cells = S[along & (r >= lo) & (r < hi)]
+            if np.isfinite(cells).any():
+                depth[k, j] = z_surface - float(np.nanmedian(cells))
+    return (edges[:-1] + edges[1:]) / 2, depth
 
 
 def length_at_depth(below, seed, z: float, step: float, probe: float) -> float:

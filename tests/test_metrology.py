@@ -7,7 +7,7 @@ import pytest
 
 from analysis import compare
 from analysis.config import ConfigError, Seedling, load_criteria, threshold
-from analysis.metrology import DEPTHS, measure_state
+from analysis.metrology import DEPTHS, measure_state, side_profile
 from synthetic import carve, four_section_length, four_section_width, lattice_bed
 
 L0, W, STRAIGHT, TAPER, H1 = 92.0, 50.0, 45.0, 25.0, 13.0
@@ -73,6 +73,25 @@ def test_a_crater_smeared_ahead_of_its_hole_is_found():
     assert hole.x == pytest.approx(150.0, abs=4.0)                    # the opening's centroid: ~183
     assert hole.L0 == pytest.approx(four_section_length(166.0, W), abs=2 * 4.0)  # the opening: x 104 ... 270
     assert hole.bottom == pytest.approx(H1 + STRAIGHT + TAPER, abs=2 * 4.0)
+
+
+@pytest.mark.parametrize("r", [4.0, 5.0])                # the default and quick resolutions
+def test_h1_reads_the_pressed_ring_not_the_rim_heaved_round_it(r):
+    """A round hole (D = 50) in a ring pressed 17 mm down out to the plate's 40 mm radius, and the surface
+    beyond it heaved 8 mm, as the disk scenes leave it (README, issue 5). h1 is the ring's depth; the band the
+    earlier rule read (D/2 + probe ... 40 mm) lay half on the rim, which overhangs the probed surface by a grain
+    radius plus the probe, and read 2.3 mm at r = 4. The side profile shows the ring and the rim."""
+    press, heave = 17.0, 8.0
+    pos0, rad0 = lattice_bed(300, 160, 100, r, jitter=0.2, turn=10)
+    z_top = np.percentile(pos0[:, 2] + rad0, 99)
+    pos, rad = carve(pos0, rad0, 150, 80, z_top, 50.0, 50.0, STRAIGHT, TAPER, press, ring=15.0)
+    pos[np.hypot(pos[:, 0] - 150, pos[:, 1] - 80) >= 40, 2] += heave
+    (hole,), z_surface, (xs, ys, S) = measure_state(pos, rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
+    assert hole.h1 == pytest.approx(press, abs=r)
+    assert hole.L1 == pytest.approx(50.0, abs=2 * r)             # the hole at the ring's level, not ring + hole
+    centres, depth = side_profile(S, xs, ys, z_surface, 150.0, 80.0, 50.0, 70.0)
+    assert np.allclose(depth[:, centres < 40 - 2 * r], press, atol=r)   # both sides, up to the rim's overhang
+    assert np.allclose(depth[:, centres > 40 + r], -heave, atol=r)
 
 
 def test_criteria_readings_and_a_bad_threshold():

@@ -1,0 +1,81 @@
+"""The pressed ring beside each hole (seed 001 §1.2, §4.2's h1): the surface across the travel on each side of
+the hole, beside the level the sleeve's plate face reached, and where h1 is read.
+
+The plate (an annulus from D/2 to the sleeve's outer radius) presses its ring down to its face, which at the
+deepest point stands `penetration - rest_from_tip - travel` below the undisturbed surface, `travel` being how
+far the soil pushed the plate back on its spring (the run's greatest sleeve travel). h1 is the median of the
+probed surface on the inner half of the ring, D/2 ... (D/2 + outer radius)/2 (metrology.measure_hole): the rim
+the punch and plate heave round the plate overhangs the probed surface over the outer half.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.io import atomic_csv, stamp
+from analysis.measure import measure_run
+from analysis.metrology import side_profile
+
+
+def plate_depths(cfg: dict, summary: dict) -> list[float]:
+    """Depth of the plate face below the undisturbed surface at each measured hole's deepest point (mm)."""
+    lead_in = summary.get("lead_in", 0)
+    return [cfg["disk"]["penetration"] - cfg["sleeve"]["rest_from_tip"] - t
+            for t in summary["sleeve_max_travel_mm"][lead_in:]]
+
+
+def profiles(folder) -> pd.DataFrame:
+    """One row per hole, side and distance r from the axis: the depth of the probed surface there (mm), the
+    hole's h1, its plate's face depth and the band h1 is read in."""
+    table, holes, z_surface, (xs, ys, S), (cfg, summary, _) = measure_run(folder)
+    D, outer = cfg["disk"]["D"], cfg["sleeve"]["outer_diameter"]
+    entries = summary["hole_x_mm"][summary.get("lead_in", 0):]
+    rows = []
+    for row, xc, plate in zip(table.itertuples(), entries, plate_depths(cfg, summary)):
+        r, depth = side_profile(S, xs, ys, z_surface, xc, cfg["bed_size_mm"][1] / 2, D, outer + 10)
+        for side, d in zip(("-y", "+y"), depth):
+            rows += [{"run": summary["id"], "soil": cfg["soil"]["name"], "hole": row.hole, "h1": row.h1,
+                      "plate_depth": plate, "band_lo": D / 2, "band_hi": (D + outer) / 4, "side": side,
+                      "r": ri, "depth": di} for ri, di in zip(r, d)]
+    return pd.DataFrame(rows)
+
+
+def run(folders, out: Path) -> pd.DataFrame:
+    """rings.csv and rings.png in `out`: every hole of the given finished runs."""
+    table = pd.concat([profiles(f) for f in folders], ignore_index=True).round(2)
+    out.mkdir(parents=True, exist_ok=True)
+    command = "./holes rings " + " ".join(Path(f).name for f in folders)
+    atomic_csv(table, out / "rings.csv", stamp(command) + "; mm below the undisturbed surface, r from the hole's axis")
+    plot(table, out / "rings.png", command)
+    return table
+
+
+def plot(table: pd.DataFrame, path: Path, command: str):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    holes = list(table.groupby(["run", "hole"], sort=False))
+    cols = min(4, len(holes))
+    rows = -(-len(holes) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 3.0 * rows), squeeze=False, sharey=True)
+    for ax, ((run, hole), g) in zip(axes.flat, holes):
+        for side, colour in (("-y", "tab:blue"), ("+y", "tab:orange")):
+            s = g[g.side == side]
+            ax.plot(s.r, -s.depth, "-", color=colour, lw=1.2, label=f"surface, {side} side")
+        first = g.iloc[0]
+        ax.axhline(-first.plate_depth, color="k", lw=0.8, ls="--", label="plate face at the deepest point")
+        ax.axhline(-first.h1, color="r", lw=0.8, label="−h1")
+        ax.axhline(0, color="0.6", lw=0.5)
+        ax.axvspan(first.band_lo, first.band_hi, color="r", alpha=0.08, label="band h1 is read in")
+        ax.set(title=f"{run.split('-')[0]} {run.split('-')[-1][:4]} hole {hole}", xlabel="r from the axis, mm")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("z − undisturbed level, mm")
+    for ax in axes.flat[len(holes):]:
+        ax.axis("off")
+    axes.flat[0].legend(fontsize=6, loc="lower right")
+    fig.suptitle(f"the pressed ring beside each hole (`{command}`)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
