@@ -139,8 +139,9 @@ def plot(t: pd.DataFrame, path: Path, note: str):
 def economies(table: pd.DataFrame) -> pd.DataFrame:
     """Each case beside the reference (seed 1, no scene field changed): its cost as a ratio of particle-steps
     (contention-free) and of CPU time (against the mean CPU time of the reference's packings that recorded
-    one; wall time where none did), and the change of each metric, case − reference; last, the reference's
-    seed-to-seed SD of each metric, the scatter a change is set against."""
+    one; wall time where none did), its slip between holes (a free-rolling disk's own), and the change of each
+    metric, case − reference; last, the reference's seed-to-seed SD of each metric, the scatter a change is
+    set against."""
     t = table.copy()
     for f in SCENE_FIELDS:
         t[f] = t[f] if f in t else np.nan
@@ -156,11 +157,12 @@ def economies(table: pd.DataFrame) -> pd.DataFrame:
         rows.append({"run": r.run, "change": f"{change} = {getattr(r, change)}", "particles": r.particles,
                      "steps": r.steps, "cost_s": r.cost_s,
                      "particle_steps_ratio": r.particles * r.steps / (ref.particles * ref.steps),
-                     "cost_ratio": r.cost_s / ref_cost, **{f"d{m}": getattr(r, m) - ref[m] for m in METRICS}})
+                     "cost_ratio": r.cost_s / ref_cost, "slip_holes": getattr(r, "slip_holes", np.nan),
+                     **{f"d{m}": getattr(r, m) - ref[m] for m in METRICS}})
     seeds = t[plain]
     rows.insert(0, {"run": ref.run, "change": "reference", "particles": ref.particles, "steps": ref.steps,
                     "cost_s": ref_cost, "particle_steps_ratio": 1.0, "cost_ratio": 1.0,
-                    **{f"d{m}": 0.0 for m in METRICS}})
+                    "slip_holes": ref.get("slip_holes", np.nan), **{f"d{m}": 0.0 for m in METRICS}})
     rows.append({"run": " ".join(seeds.run), "change": f"seed-to-seed SD ({len(seeds)} packings)",
                  **{f"d{m}": seeds[m].std(ddof=1) for m in METRICS}})
     return pd.DataFrame(rows)

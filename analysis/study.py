@@ -70,7 +70,8 @@ def load_study(path) -> tuple[dict, list[Case]]:
 
 def case_row(case: Case, runs_dir: Path, criteria: dict) -> dict:
     """One tidy row: the case's fields, its cost and its holes' means and pass rate (stated reading); `found`
-    counts the holes found where the punch entered (the means are over those, the pass rate over all)."""
+    counts the holes found where the punch entered (the means are over those, the pass rate over all);
+    slip_holes: the mean slip between consecutive holes' entries (eq 1, summary.json)."""
     from analysis import measure
     run = runs_dir / case.id
     summary = json.loads((run / "summary.json").read_text())
@@ -85,7 +86,8 @@ def case_row(case: Case, runs_dir: Path, criteria: dict) -> dict:
     row.update({"pass_rate": float(passed.mean()), "passed": int(passed.sum()),
                 "wall_s": summary["wall_s"], "cpu_s": summary.get("cpu_s", np.nan),
                 "particles": summary["particles"], "steps": summary["steps"],
-                "threads": summary["threads"], "slip_out": summary.get("slip_out")})
+                "threads": summary["threads"], "slip_out": summary.get("slip_out"),
+                "slip_holes": float(np.mean(summary["slip_holes"])) if summary.get("slip_holes") else np.nan})
     return row
 
 
@@ -140,7 +142,7 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     cost = ("wall_s", "cpu_s", "particles", "steps", "threads")
-    keys = [k for k in table.columns if k not in ("run", "holes", "found", "passed", *cost, "slip_out", "pass_rate",
+    keys = [k for k in table.columns if k not in ("run", "holes", "found", "passed", *cost, "slip_out", "slip_holes", "pass_rate",
                                                   *METRICS)
             and not k.endswith("_sd") and not k.startswith("l_") and table[k].nunique() > 1]
     x = keys[0] if keys else "run"

@@ -52,6 +52,9 @@ def test_economies_are_changes_against_the_seed_1_reference_with_the_seed_scatte
     assert e.loc["lead_in = 0.0", "dL0"] == pytest.approx(-10.0)
     assert e.loc["seed-to-seed SD (3 packings)", "dL0"] == pytest.approx(2.0)
     assert e.loc["seed-to-seed SD (3 packings)", "dL1"] == 0.0
+    assert e.slip_holes.isna().all()                      # a table made before studies recorded it
+    slips = economies(t.assign(slip_holes=[0.0, 0.0, 0.0, -0.056, 0.0, 0.0])).set_index("change").slip_holes
+    assert slips["mode = free"] == pytest.approx(-0.056) and slips["reference"] == 0.0
 
 
 def test_packings_of_a_setting_are_pooled_and_its_error_set_against_their_scatter():
