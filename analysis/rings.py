@@ -53,6 +53,7 @@ def run(folders, out: Path) -> pd.DataFrame:
 
 
 def plot(table: pd.DataFrame, path: Path, command: str):
+    """One panel per hole: the surface on each side against r, the plate's face, −h1 and the band it is read in."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -142,8 +142,8 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     cost = ("wall_s", "cpu_s", "particles", "steps", "threads")
-    keys = [k for k in table.columns if k not in ("run", "holes", "found", "passed", *cost, "slip_out", "slip_holes", "pass_rate",
-                                                  *METRICS)
+    keys = [k for k in table.columns if k not in ("run", "holes", "found", "passed", *cost, "slip_out", "slip_holes",
+                                                  "pass_rate", *METRICS)
             and not k.endswith("_sd") and not k.startswith("l_") and table[k].nunique() > 1]
     x = keys[0] if keys else "run"
     group = keys[1] if len(keys) > 1 else None
