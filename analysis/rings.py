@@ -34,7 +34,8 @@ def profiles(folder) -> pd.DataFrame:
     entries = summary["hole_x_mm"][summary.get("lead_in", 0):]
     rows = []
     for row, xc, plate in zip(table.itertuples(), entries, plate_depths(cfg, summary)):
-        r, depth = side_profile(S, xs, ys, z_surface, xc, cfg["bed_size_mm"][1] / 2, D, outer + 10)
+        half_width = cfg["bed_size_mm"][1] / 2
+        r, depth = side_profile(S, xs, ys, z_surface, xc, half_width, D, min(outer + 10, half_width))
         for side, d in zip(("-y", "+y"), depth):
             rows += [{"run": summary["id"], "soil": cfg["soil"]["name"], "hole": row.hole, "h1": row.h1,
                       "plate_depth": plate, "band_lo": D / 2, "band_hi": (D + outer) / 4, "side": side,
