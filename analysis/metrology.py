@@ -121,6 +121,12 @@ def inscribed_diameter(mask, step: float, probe: float) -> float:
     return float(2 * (reach * step - step / 2 + probe))
 
 
+def h1_band(D: float, sleeve_outer: float) -> tuple[float, float]:
+    """The distances from a hole's axis, across the travel, between which h1 is read (measure_hole): the inner
+    half of the ring the sleeve's plate presses, from the punch's wall D/2 to (D/2 + sleeve_outer/2)/2."""
+    return D / 2, (D + sleeve_outer) / 4
+
+
 @dataclass
 class HoleMeasure:
     """One hole, measured as in seed 001 §4.2 (mm). z_open: the level of the opening (subsided surface)."""
@@ -159,7 +165,8 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     opening's centroid is not: a wall the disk drags up on one side moves it a punch radius or more."""
     step = xs[1] - xs[0]
     X, Y = np.meshgrid(xs, ys, indexing="ij")
-    side = (np.abs(X - xc) <= D / 4) & (np.abs(Y - yc) >= D / 2) & (np.abs(Y - yc) <= (D + sleeve_outer) / 4)
+    lo, hi = h1_band(D, sleeve_outer)
+    side = (np.abs(X - xc) <= D / 4) & (np.abs(Y - yc) >= lo) & (np.abs(Y - yc) <= hi)
     h1 = z_surface - float(np.nanmedian(S[side]))
     z_open = z_surface - h1
     near = np.hypot(X - xc, Y - yc) <= D / 2

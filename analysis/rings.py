@@ -16,7 +16,7 @@ import pandas as pd
 
 from analysis.io import atomic_csv, stamp
 from analysis.measure import measure_run
-from analysis.metrology import side_profile
+from analysis.metrology import h1_band, side_profile
 
 
 def plate_depths(cfg: dict, summary: dict) -> list[float]:
@@ -31,14 +31,15 @@ def profiles(folder) -> pd.DataFrame:
     hole's h1, its plate's face depth and the band h1 is read in."""
     table, holes, z_surface, (xs, ys, S), (cfg, summary, _) = measure_run(folder)
     D, outer = cfg["disk"]["D"], cfg["sleeve"]["outer_diameter"]
+    band_lo, band_hi = h1_band(D, outer)
+    half_width = cfg["bed_size_mm"][1] / 2
     entries = summary["hole_x_mm"][summary.get("lead_in", 0):]
     rows = []
     for row, xc, plate in zip(table.itertuples(), entries, plate_depths(cfg, summary)):
-        half_width = cfg["bed_size_mm"][1] / 2
         r, depth = side_profile(S, xs, ys, z_surface, xc, half_width, D, min(outer + 10, half_width))
         for side, d in zip(("-y", "+y"), depth):
             rows += [{"run": summary["id"], "soil": cfg["soil"]["name"], "hole": row.hole, "h1": row.h1,
-                      "plate_depth": plate, "band_lo": D / 2, "band_hi": (D + outer) / 4, "side": side,
+                      "plate_depth": plate, "band_lo": band_lo, "band_hi": band_hi, "side": side,
                       "r": ri, "depth": di} for ri, di in zip(r, d)]
     return pd.DataFrame(rows)
 
