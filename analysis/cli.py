@@ -71,11 +71,13 @@ def cmd_measure(args) -> int:
 
 def cmd_rings(args) -> int:
     from analysis import rings
-    table = rings.run(args.folders, Path(args.out))
+    table, cuts = rings.run(args.folders, Path(args.out))
     inner = table[(table.r >= table.band_lo) & (table.r <= table.band_hi)]
     print(inner.groupby(["run", "hole"], sort=False)[["h1", "plate_depth", "depth"]]
           .agg({"h1": "first", "plate_depth": "first", "depth": ["min", "max"]}).round(1).to_string())
-    print(f"wrote {args.out}/rings.csv, rings.png")
+    print("L0, L1, L2 (mm) moved by the opening's cut going from 0.5 to 1.5 probe radii below -h1:")
+    print(rings.cut_slopes(cuts).round(1).to_string(index=False))
+    print(f"wrote {args.out}/rings.csv, rings.png, cut.csv")
     return 0
 
 

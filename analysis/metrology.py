@@ -143,7 +143,7 @@ class HoleMeasure:
 
 
 def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sleeve_outer: float,
-                 probe: float, diameter_min: float, dz: float = 1.0) -> HoleMeasure:
+                 probe: float, diameter_min: float, dz: float = 1.0, cut: float | None = None) -> HoleMeasure:
     """Measure the hole nearest (xc, yc) on the probed surface S (seed 001 §4.2).
 
     h1: z_surface minus the median of S beside the hole, on the inner half of the ring the sleeve's plate
@@ -151,7 +151,8 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     punch and plate push aside heaves round the plate, and that rim, standing at the plate's edge, overhangs S
     by a grain radius plus the probe (up to 10 mm at r = 5 mm), so a band out to the plate's edge reads it
     (README, issue 5: the pressed ring). The opening: the connected cells below the
-    subsided level z_open = z_surface - h1 by more than one probe radius (grain-scale roughness), grown from
+    subsided level z_open = z_surface - h1 by more than `cut` (default one probe radius: the grain-scale
+    roughness; `./holes rings` reports how L0 and L1 move with it), grown from
     the deepest cell within D/2 of the expected centre. L2: scanning down from z_open in steps dz, the
     region the probe reaches below z (grown from that deepest cell) until its inscribed diameter is no
     more than `diameter_min`, interpolated between steps. An opening whose centroid and deepest point both
@@ -173,7 +174,7 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     Sn = np.where(near & np.isfinite(S), S, np.inf)
     seed = np.unravel_index(np.argmin(Sn), S.shape)
     below = np.where(np.isfinite(S), S, -np.inf)
-    opening = grow(below < z_open - probe, seed)
+    opening = grow(below < z_open - (probe if cut is None else cut), seed)
     if not opening.any():
         return HoleMeasure(xc, h1, 0.0, 0.0, 0.0, z_surface - float(S[seed]), z_open)
     x_open, y_open = float(X[opening].mean()), float(Y[opening].mean())       # the opening's centroid

@@ -6,6 +6,10 @@ deepest point stands `penetration - rest_from_tip - travel` below the undisturbe
 far the soil pushed the plate back on its spring (the run's greatest sleeve travel). h1 is the median of the
 probed surface on the inner half of the ring, D/2 ... (D/2 + outer radius)/2 (metrology.measure_hole): the rim
 the punch and plate heave round the plate overhangs the probed surface over the outer half.
+
+The opening (L0, L1) is cut `cut` below the subsided level −h1, one probe radius by default (the grain-scale
+roughness of the pressed ring). cut.csv gives each hole's L0, L1 and L2 at 0 ... 2 probe radii, so the
+measure's dependence on that level is a number, not a caveat.
 """
 from __future__ import annotations
 
@@ -15,8 +19,11 @@ import numpy as np
 import pandas as pd
 
 from analysis.io import atomic_csv, stamp
-from analysis.measure import measure_run
-from analysis.metrology import h1_band, side_profile
+from analysis.config import load_seedling
+from analysis.measure import hole_tool, measure_run
+from analysis.metrology import h1_band, measure_hole, side_profile
+
+CUTS = (0.0, 0.5, 1.0, 1.5, 2.0)      # the opening's cut below −h1, in probe radii (1: the rule)
 
 
 def plate_depths(cfg: dict, summary: dict) -> list[float]:
@@ -44,14 +51,41 @@ def profiles(folder) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def run(folders, out: Path) -> pd.DataFrame:
-    """rings.csv and rings.png in `out`: every hole of the given finished runs."""
+def cut_levels(folder, seedling_path="configs/seedling.toml") -> pd.DataFrame:
+    """One row per hole and cut (CUTS, in probe radii below −h1): the hole's L0, L1 and L2 measured with the
+    opening cut there (metrology.measure_hole), mm."""
+    table, holes, z_surface, (xs, ys, S), (cfg, summary, _) = measure_run(folder, seedling_path=seedling_path)
+    D, outer = hole_tool(cfg)
+    diameter_min = 2 ** 0.5 * load_seedling(seedling_path).a2
+    rows = []
+    for row, xc in zip(table.itertuples(), summary["hole_x_mm"][summary.get("lead_in", 0):]):
+        for k in CUTS:
+            h = measure_hole(S, xs, ys, z_surface, xc, cfg["bed_size_mm"][1] / 2, D, outer, row.probe,
+                             diameter_min, cut=k * row.probe)
+            rows.append({"run": summary["id"], "soil": cfg["soil"]["name"], "hole": row.hole, "probe": row.probe,
+                         "cut_probes": k, "cut": k * row.probe, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2})
+    return pd.DataFrame(rows)
+
+
+def cut_slopes(cuts: pd.DataFrame) -> pd.DataFrame:
+    """Per hole, how far L0, L1 and L2 move (mm) when the cut goes from 0.5 to 1.5 probe radii, the rule ± half
+    a probe radius."""
+    def span(g):
+        lo, hi = g[g.cut_probes == 0.5].iloc[0], g[g.cut_probes == 1.5].iloc[0]
+        return pd.Series({m: hi[m] - lo[m] for m in ("L0", "L1", "L2")})
+    return cuts.groupby(["run", "soil", "hole"], sort=False).apply(span).reset_index()
+
+
+def run(folders, out: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """rings.csv, rings.png and cut.csv in `out`: every hole of the given finished runs."""
     table = pd.concat([profiles(f) for f in folders], ignore_index=True).round(2)
+    cuts = pd.concat([cut_levels(f) for f in folders], ignore_index=True).round(2)
     out.mkdir(parents=True, exist_ok=True)
     command = "./holes rings " + " ".join(Path(f).name for f in folders)
     atomic_csv(table, out / "rings.csv", stamp(command) + "; mm below the undisturbed surface, r from the hole's axis")
+    atomic_csv(cuts, out / "cut.csv", stamp(command) + "; mm; the opening cut `cut` below −h1 (1 probe: the rule)")
     plot(table, out / "rings.png", command)
-    return table
+    return table, cuts
 
 
 def plot(table: pd.DataFrame, path: Path, command: str):

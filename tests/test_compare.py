@@ -3,6 +3,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from analysis.config import ROOT
@@ -41,12 +42,15 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     # the pressed ring beside each hole (./holes rings): both sides of both holes, the plate's face from the run
     from analysis import rings
     run_dir = scene_dirs[0] / holes.run.iloc[0]
-    profile = rings.run([run_dir], tmp_path / "rings")
+    profile, cuts = rings.run([run_dir], tmp_path / "rings")
     assert set(profile.groupby(["hole", "side"]).groups) == {(1, "-y"), (1, "+y"), (2, "-y"), (2, "+y")}
     summary = json.loads((run_dir / "summary.json").read_text())
     assert list(profile.groupby("hole").plate_depth.first()) == pytest.approx(
         [70.0 - 40.0 - t for t in summary["sleeve_max_travel_mm"][summary["lead_in"]:]], abs=0.01)
     assert profile.depth.notna().mean() > 0.8 and (tmp_path / "rings" / "rings.png").stat().st_size > 5000
+    rule = cuts[cuts.cut_probes == 1.0].set_index("hole")          # the opening cut at the rule's level: the table
+    assert np.allclose(rule[["L0", "L1", "L2"]], holes.set_index("hole")[["L0", "L1", "L2"]], atol=0.01)
+    assert len(rings.cut_slopes(cuts)) == 2
     # the run kept beside the table stands in for a run folder this machine does not have
     kept = tmp_path / "comparison" / "runs"
     assert {p.name for p in next(kept.iterdir()).iterdir()} == {"holes.csv", "summary.json", "config.json"}

@@ -7,7 +7,7 @@ import pytest
 
 from analysis import compare
 from analysis.config import ConfigError, Seedling, load_criteria, threshold
-from analysis.metrology import DEPTHS, measure_state, side_profile
+from analysis.metrology import DEPTHS, measure_hole, measure_state, side_profile
 from synthetic import carve, four_section_length, four_section_width, lattice_bed
 
 L0, W, STRAIGHT, TAPER, H1 = 92.0, 50.0, 45.0, 25.0, 13.0
@@ -92,6 +92,23 @@ def test_h1_reads_the_pressed_ring_not_the_rim_heaved_round_it(r):
     centres, depth = side_profile(S, xs, ys, z_surface, 150.0, 80.0, 50.0, 70.0)
     assert np.allclose(depth[:, centres < 40 - 2 * r], press, atol=r)   # both sides, up to the rim's overhang
     assert np.allclose(depth[:, centres > 40 + r], -heave, atol=r)
+
+
+@pytest.mark.parametrize("straight, taper, slope", [(STRAIGHT, TAPER, 0.0), (0.0, 60.0, 1.0)])
+def test_the_openings_cut_level_moves_it_as_the_walls_slope(straight, taper, slope):
+    """The opening is cut `cut` below −h1. Where the walls stand vertical (the carved stadium's straight part)
+    the cut does not move L0 or L1; in a cone whose diameter shrinks 1 mm per mm of depth, cutting 3 probe
+    radii deeper shortens both by 3 probe radii (./holes rings reports this per simulated hole)."""
+    r = 4.0
+    pos0, rad0 = lattice_bed(300, 160, 100, r, jitter=0.2, turn=10)
+    z_top = np.percentile(pos0[:, 2] + rad0, 99)
+    pos, rad = carve(pos0, rad0, 150, 80, z_top, 60.0, 60.0, straight, taper, H1, ring=20)
+    _, z_surface, (xs, ys, S) = measure_state(pos, rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
+    shallow, deep = (measure_hole(S, xs, ys, z_surface, 150.0, 80.0, 50.0, 80.0, r, DIAMETER_MIN, cut=k * r)
+                     for k in (0.5, 3.5))
+    for name in ("L0", "L1"):
+        assert getattr(shallow, name) - getattr(deep, name) == pytest.approx(3 * r * slope, abs=r), name
+    assert deep.h1 == shallow.h1
 
 
 def test_criteria_readings_and_a_bad_threshold():
