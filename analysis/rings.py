@@ -70,10 +70,8 @@ def cut_levels(folder, seedling_path="configs/seedling.toml") -> pd.DataFrame:
 def cut_slopes(cuts: pd.DataFrame) -> pd.DataFrame:
     """Per hole, how far L0, L1 and L2 move (mm) when the cut goes from 0.5 to 1.5 probe radii, the rule ± half
     a probe radius."""
-    def span(g):
-        lo, hi = g[g.cut_probes == 0.5].iloc[0], g[g.cut_probes == 1.5].iloc[0]
-        return pd.Series({m: hi[m] - lo[m] for m in ("L0", "L1", "L2")})
-    return cuts.groupby(["run", "soil", "hole"], sort=False).apply(span).reset_index()
+    wide = cuts.set_index(["run", "soil", "hole", "cut_probes"])[["L0", "L1", "L2"]].unstack("cut_probes")
+    return pd.DataFrame({m: wide[(m, 1.5)] - wide[(m, 0.5)] for m in ("L0", "L1", "L2")}).reset_index()
 
 
 def run(folders, out: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
