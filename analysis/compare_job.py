@@ -92,10 +92,12 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     folder = out / "comparison"
     folder.mkdir(parents=True, exist_ok=True)
     atomic_csv(holes.round(2), folder / f"{preset}-holes.csv", note)
+    cpu = (f" and {costs.cpu_s.sum():.0f} s of CPU" if "cpu_s" in costs and costs.cpu_s.notna().all() else "")
     cost = "Cost: not recorded for these runs." if costs.empty else (
         f"Cost: {len(costs)} runs, {int(costs.particles.mean())} grains each on average, "
-        f"{costs.wall_s.sum():.0f} s of wall time in all (YADE threads per run: {'/'.join(map(str, sorted(set(costs.threads))))}; "
-        f"{(costs.wall_s * 200 / costs.travel_mm).mean():.0f} s per 200 mm hole).")
+        f"{costs.wall_s.sum():.0f} s of wall time{cpu} in all (YADE threads per run: {'/'.join(map(str, sorted(set(costs.threads))))}; "
+        f"{(costs.wall_s * 200 / costs.travel_mm).mean():.0f} s per 200 mm hole; wall time includes any time a run "
+        f"was suspended).")
     unrecorded = holes.run.nunique() - len(costs)
     if unrecorded and not costs.empty:
         cost += f" The other {unrecorded} runs' summaries were not kept."
