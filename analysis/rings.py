@@ -33,10 +33,10 @@ def plate_depths(cfg: dict, summary: dict) -> list[float]:
             for t in summary["sleeve_max_travel_mm"][lead_in:]]
 
 
-def profiles(folder) -> pd.DataFrame:
+def profiles(measured) -> pd.DataFrame:
     """One row per hole, side and distance r from the axis: the depth of the probed surface there (mm), the
-    hole's h1, its plate's face depth and the band h1 is read in."""
-    table, holes, z_surface, (xs, ys, S), (cfg, summary, _) = measure_run(folder)
+    hole's h1, its plate's face depth and the band h1 is read in. `measured`: a run's measure_run()."""
+    table, holes, z_surface, (xs, ys, S), (cfg, summary, _) = measured
     D, outer = cfg["disk"]["D"], cfg["sleeve"]["outer_diameter"]
     band_lo, band_hi = h1_band(D, outer)
     half_width = cfg["bed_size_mm"][1] / 2
@@ -51,10 +51,10 @@ def profiles(folder) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def cut_levels(folder, seedling_path="configs/seedling.toml") -> pd.DataFrame:
+def cut_levels(measured, seedling_path="configs/seedling.toml") -> pd.DataFrame:
     """One row per hole and cut (CUTS, in probe radii below −h1): the hole's L0, L1 and L2 measured with the
-    opening cut there (metrology.measure_hole), mm."""
-    table, holes, z_surface, (xs, ys, S), (cfg, summary, _) = measure_run(folder, seedling_path=seedling_path)
+    opening cut there (metrology.measure_hole), mm. `measured`: a run's measure_run()."""
+    table, holes, z_surface, (xs, ys, S), (cfg, summary, _) = measured
     D, outer = hole_tool(cfg)
     diameter_min = 2 ** 0.5 * load_seedling(seedling_path).a2
     rows = []
@@ -76,8 +76,9 @@ def cut_slopes(cuts: pd.DataFrame) -> pd.DataFrame:
 
 def run(folders, out: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
     """rings.csv, rings.png and cut.csv in `out`: every hole of the given finished runs."""
-    table = pd.concat([profiles(f) for f in folders], ignore_index=True).round(2)
-    cuts = pd.concat([cut_levels(f) for f in folders], ignore_index=True).round(2)
+    measured = [measure_run(f) for f in folders]
+    table = pd.concat([profiles(m) for m in measured], ignore_index=True).round(2)
+    cuts = pd.concat([cut_levels(m) for m in measured], ignore_index=True).round(2)
     out.mkdir(parents=True, exist_ok=True)
     command = "./holes rings " + " ".join(Path(f).name for f in folders)
     atomic_csv(table, out / "rings.csv", stamp(command) + "; mm below the undisturbed surface, r from the hole's axis")
