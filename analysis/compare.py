@@ -48,7 +48,7 @@ def theory_values(disk_path="configs/disk.toml", slip: float | None = None) -> d
     slip = disk.slip if slip is None else slip
     prof = hole_profile(disk, slip)
     size = np.fmin(prof.length, prof.width)
-    below = np.flatnonzero(size <= 2 ** 0.5 * load_seedling().a2)
+    below = np.flatnonzero(size <= load_seedling().l2_diameter)
     t1 = read_table(ROOT / "configs/field/table1.csv")
     row = t1.iloc[int(np.argmin(np.abs(t1.slip - slip)))]
     return {"table1": {"L0": float(row.L0), "L1": float(row.L1), "C": hole_spacing(disk, slip)},

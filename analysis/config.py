@@ -293,6 +293,11 @@ class Seedling:
     a2: float
     h0: float
 
+    @property
+    def l2_diameter(self) -> float:
+        """√2·a2: the inner diameter down to which the effective depth L2 is measured (seed 001 §4.2)."""
+        return 2 ** 0.5 * self.a2
+
 
 def load_seedling(path="configs/seedling.toml") -> Seedling:
     data = split_sections(path, read_toml(path), {"seedling", "source", "criteria"})

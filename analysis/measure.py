@@ -47,7 +47,7 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     pos, rad, pos0 = state["pos"] * 1000, state["radius"] * 1000, state["initial_pos"] * 1000
     measured_x = summary["hole_x_mm"][summary.get("lead_in", 0):]        # lead-in holes are not measured
     holes, z_surface, surf = measure_state(pos, rad, pos0, rad, cfg["bed_size_mm"][1], measured_x,
-                                           *hole_tool(cfg), 2 ** 0.5 * seedling.a2, cell=cell)
+                                           *hole_tool(cfg), seedling.l2_diameter, cell=cell)
     x = np.array([h.x if h.found else np.nan for h in holes])      # C: NaN to or from a hole not found
     rows = [{"run": summary["id"], "soil": cfg["soil"]["name"], "seed": cfg["seed"], "hole": k + 1,
              "found": h.found, "x": h.x,

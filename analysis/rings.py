@@ -56,12 +56,12 @@ def cut_levels(measured, seedling_path="configs/seedling.toml") -> pd.DataFrame:
     opening cut there (metrology.measure_hole), mm. `measured`: a run's measure_run()."""
     table, holes, z_surface, (xs, ys, S), (cfg, summary, _) = measured
     D, outer = hole_tool(cfg)
-    diameter_min = 2 ** 0.5 * load_seedling(seedling_path).a2
+    seedling = load_seedling(seedling_path)
     rows = []
     for row, xc in zip(table.itertuples(), summary["hole_x_mm"][summary.get("lead_in", 0):]):
         for k in CUTS:
             h = measure_hole(S, xs, ys, z_surface, xc, cfg["bed_size_mm"][1] / 2, D, outer, row.probe,
-                             diameter_min, cut=k * row.probe)
+                             seedling.l2_diameter, cut=k * row.probe)
             rows.append({"run": summary["id"], "soil": cfg["soil"]["name"], "hole": row.hole, "probe": row.probe,
                          "cut_probes": k, "cut": k * row.probe, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2})
     return pd.DataFrame(rows)
