@@ -32,6 +32,12 @@ def run_scene(script: str, args: list[str]) -> int:
     return subprocess.call([sys.executable, str(ROOT / "scripts" / script), *args], cwd=ROOT)
 
 
+def cmd_params(args) -> int:
+    from analysis import params_doc
+    print(f"wrote {params_doc.write()}")
+    return 0
+
+
 def cmd_calibrate(args) -> int:
     from analysis import calibrate
     lo, hi = (float(v) for v in args.cohesion_range.split(","))
@@ -233,6 +239,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--disk", default="configs/disk.toml", help="disk config (default: the seed's disk)")
     p.add_argument("--out", help="output folder (default results/theory/[disk name])")
     p.set_defaults(func=cmd_theory)
+    p = sub.add_parser("params", help="write configs/README.md: every config key, its range, value, meaning, source")
+    p.set_defaults(func=cmd_params)
     p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
     p.add_argument("file", nargs="+", help="study file(s), e.g. configs/studies/slip.toml; several run as one batch")
     p.add_argument("--workers", type=int, help="cases at a time (default: cores / threads)")

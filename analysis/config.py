@@ -36,7 +36,8 @@ class Field:
             return "a string"
         left = "(" if self.lo_open else "["
         right = ")" if self.hi_open else "]"
-        return f"{left}{self.lo:g}, {self.hi:g}{right} {self.unit}".rstrip()
+        lo, hi = (f"{int(v)}" if self.kind is int and math.isfinite(v) else f"{v:g}" for v in (self.lo, self.hi))
+        return f"{left}{lo}, {hi}{right} {self.unit}".rstrip()
 
     def check(self, where: str, value):
         if self.kind is str:
@@ -213,6 +214,10 @@ def load_sleeve(path, disk: Disk | None = None) -> Sleeve:
 # --- scene presets (configs/presets.toml) ---------------------------------------------------------------
 
 LATERAL = ("walls", "periodic")   # a bed's sides: rigid walls, or none (a periodic cell across them)
+
+
+SEED = Field(0, 2 ** 31 - 1, kind=int, meaning="the bed's packing seed (YADE's makeCloud; a negative one would "
+                                              "draw a random packing under a fixed name, so it is refused)")
 
 
 def check_lateral(lateral: str, where: str = "bed.lateral") -> str:

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (LATERAL, ROOT, ConfigError, Field, check_lateral, load_resolution, load_soil,  # noqa: E402
+from analysis.config import (LATERAL, ROOT, SEED, ConfigError, Field, check_lateral, load_resolution, load_soil,  # noqa: E402
                              parse_overrides, soil_with)
 from analysis.io import atomic_write  # noqa: E402
 
@@ -80,7 +80,7 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
     """Build (or find) the bed; returns the .npz path. All checks run before YADE starts."""
     soil, res = soil_with(load_soil(soil_name), overrides or {}), load_resolution(resolution)
     size = check_size([s / 1000.0 for s in size_mm])
-    key = bed_key(soil, res, size, seed, check_lateral(lateral))
+    key = bed_key(soil, res, size, SEED.check("bed.seed", seed), check_lateral(lateral))
     out = Path(bed_dir) / f"{key}.npz"
     if out.exists() and out.with_suffix(".json").exists():
         return out

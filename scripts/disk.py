@@ -39,7 +39,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (ROOT, ConfigError, Field, as_dict, load_disk, load_preset, load_sleeve,  # noqa: E402
+from analysis.config import (ROOT, SEED, ConfigError, Field, as_dict, load_disk, load_preset, load_sleeve,  # noqa: E402
                              load_soil, parse_overrides, preset_with, soil_with, tool_with)
 from analysis.io import atomic_write  # noqa: E402
 from analysis.kinematics import TIP_SPHERE_RATIO, layout, slip_between_holes  # noqa: E402
@@ -75,6 +75,7 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
     """Every parameter of the run, checked, before YADE starts."""
     if mode not in MODES:
         raise ConfigError(f"mode = {mode!r}: allowed {', '.join(MODES)}")
+    seed = SEED.check("run.seed", seed)
     disk = load_disk(disk_path)
     disk, sleeve = tool_with(disk, load_sleeve(disk_path, disk), tool or {})
     preset = load_preset(preset_name)

@@ -78,3 +78,26 @@ def test_every_help_page_prints(capsys):
             parser.parse_args([*argv, "--help"])
         assert done.value.code == 0, argv
     assert "calibrate" in capsys.readouterr().out
+
+
+def test_a_negative_packing_seed_is_refused_by_bed_and_run():
+    """YADE's makeCloud draws a random packing for a negative seed: the bed would be cached under a name
+    that does not make it again, so both entries refuse it before YADE starts."""
+    from scripts import bed, disk
+    with pytest.raises(ConfigError, match=r"bed\.seed = -1 is out of range: allowed \[0, 2147483647\]"):
+        bed.build("clay", "tiny", (100.0, 100.0, 60.0), seed=-1)
+    with pytest.raises(ConfigError, match=r"run\.seed = -1 is out of range"):
+        disk.plan_from_argv(["--soil", "clay", "--preset", "test", "--seed", "-1"])
+    assert disk.plan_from_argv(["--soil", "clay", "--preset", "test", "--seed", "0"])["seed"] == 0
+
+
+def test_the_parameter_page_is_current():
+    """configs/README.md is rendered from the schemas and the committed configs: every key is on it with its
+    range and value, and a config or schema changed without `./holes params` fails here."""
+    from analysis import params_doc
+    page = params_doc.render()
+    from analysis.config import DISK_FIELDS, PRESET_FIELDS, SLEEVE_FIELDS, SOIL_FIELDS
+    for key in (*DISK_FIELDS, *SLEEVE_FIELDS, *PRESET_FIELDS, *SOIL_FIELDS):
+        assert f"| `{key}` |" in page, key
+    assert "| `normal_cohesion` | [0, 1e+08] | Pa | 48000 | 48920 | 37830 |" in page
+    assert params_doc.PATH.read_text() == page, "configs/README.md is out of date: run `./holes params`"
