@@ -157,6 +157,8 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
                 ax.plot(line["x"], line[m], style, marker=".", label=label)
         for label, part in (table.groupby(group) if group else [(None, table)]):
             part = part.sort_values(x)
+            if part[m].isna().all():                   # e.g. C in a one-hole study: nothing to draw
+                continue
             err = part.get(f"{m}_sd")                  # SD over a case's holes; none with one hole
             ax.errorbar(part[x], part[m], yerr=None if err is None else err.fillna(0.0), marker="o", capsize=3,
                         label=f"{group} = {label}" if group else None)

@@ -137,6 +137,22 @@ def test_a_slip_study_plots_the_theory_beside_the_holes(tmp_path):
     assert (tmp_path / "slip_depth.png").stat().st_size > 10_000      # l_H beside Table 1
 
 
+
+def test_a_one_hole_study_plots_without_an_all_nan_metric(tmp_path):
+    """One hole per case has no spacing C: its panel is left empty, not drawn from NaN (a RuntimeWarning)."""
+    import warnings
+    import pandas as pd
+    from analysis.study import plot
+    nan = float("nan")
+    table = pd.DataFrame({"run": ["a", "b"], "depth": [nan, 180.0], "L0": [100.0, 80.0], "L1": [50.0, 52.0],
+                          "L2": [38.0, 27.0], "h1": [16.0, 19.0], "C": [nan] * 2, "pass_rate": [0.0, 0.0]})
+    for m in ("L0", "L1", "L2", "h1", "C"):
+        table[f"{m}_sd"] = nan                          # one hole: no SD
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        plot(table, {"name": "one-hole"}, tmp_path / "one.png", "test")
+    assert (tmp_path / "one.png").stat().st_size > 10_000
+
 def test_a_committed_table_keeps_its_cases_on_a_new_machine(tmp_path, monkeypatch, capsys):
     """runs/ is not committed: on a new clone a study reruns only the cases missing from its table, and the
     table it rewrites keeps the rows it already had (same run id = same parameters, soil constants included)."""
