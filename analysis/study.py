@@ -136,19 +136,35 @@ def theory_lines(x: str, values) -> dict[str, dict]:
             for label, key in (("theory: Table 1", "table1"), ("theory: swept envelope", "envelope"))}
 
 
+def plot_axes(table: pd.DataFrame) -> tuple[str, str | None, pd.DataFrame]:
+    """(x, group, table) for a study's plot: x is the first field the cases vary; each combination of the other
+    varied fields is a line ("variant", a field a case leaves at the preset's value not named; "reference"
+    when it names none). Cases that leave x itself unset are one point per run.
+
+    >>> t = pd.DataFrame({"seed": [1, 1, 2, 2], "depth": [None, 180.0, None, 180.0], "L2": [38.4, 26.6, 38.9, 35.3]})
+    >>> x, group, t = plot_axes(t)
+    >>> x, group, list(t.variant)
+    ('seed', 'variant', ['reference', 'depth = 180', 'reference', 'depth = 180'])
+    """
+    cost = ("wall_s", "cpu_s", "particles", "steps", "threads")
+    keys = [k for k in table.columns if k not in ("run", "holes", "found", "passed", *cost, "slip_out", "slip_holes",
+                                                  "pass_rate", *METRICS)
+            and not k.endswith("_sd") and not k.startswith("l_") and table[k].nunique(dropna=False) > 1]
+    if not keys or table[keys[0]].isna().any():
+        return "run", None, table
+    if len(keys) == 1:
+        return keys[0], None, table
+    variant = [", ".join(f"{k} = {v:g}" if isinstance(v, (int, float, np.number)) else f"{k} = {v}"
+                         for k in keys[1:] if pd.notna(v := row[k])) or "reference" for _, row in table.iterrows()]
+    return keys[0], "variant", table.assign(variant=variant)
+
+
 def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     """Each hole metric and the pass rate against the study's first varied field (a line per other value)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    cost = ("wall_s", "cpu_s", "particles", "steps", "threads")
-    keys = [k for k in table.columns if k not in ("run", "holes", "found", "passed", *cost, "slip_out", "slip_holes",
-                                                  "pass_rate", *METRICS)
-            and not k.endswith("_sd") and not k.startswith("l_") and table[k].nunique() > 1]
-    x = keys[0] if keys else "run"
-    group = keys[1] if len(keys) > 1 else None
-    if table[x].isna().any():            # cases that vary different fields one at a time: one point per run
-        x, group = "run", None
+    x, group, table = plot_axes(table)
     theory = theory_lines(x, table[x]) if x in table else {}
     fig, axes = plt.subplots(2, 3, figsize=(13, 7))
     for ax, m in zip(axes.flat, (*METRICS, "pass_rate")):
@@ -161,10 +177,12 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
                 continue
             err = part.get(f"{m}_sd")                  # SD over a case's holes; none with one hole
             ax.errorbar(part[x], part[m], yerr=None if err is None else err.fillna(0.0), marker="o", capsize=3,
-                        label=f"{group} = {label}" if group else None)
+                        label=label if group else None)
         ax.set_xlabel(x)
         if x == "run":
             ax.tick_params(axis="x", labelrotation=30, labelsize=6)
+        elif pd.api.types.is_integer_dtype(table[x]):                # seeds, hole counts: whole ticks
+            ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
         ax.set_ylabel(m + (" (stated criteria)" if m == "pass_rate" else ", mm"))
         ax.grid(alpha=0.3)
     if group or theory:
