@@ -107,7 +107,8 @@ def cmd_study(args) -> int:
             path = study.export_batch(args.file[0], Path(args.export_batch))
             print(f"wrote {path}; run it with: yade-batch {path} scripts/batch_case.py")
             return 0
-        return study.run(args.file, workers(args), args.threads, args.scheduler, args.runs_dir, args.bed_dir, args.out)
+        return study.run(args.file, workers(args), args.threads, args.scheduler, args.runs_dir, args.bed_dir, args.out,
+                         args.no_run)
     except ConfigError as e:
         print(f"study: {e}", file=sys.stderr)
         return 2
@@ -247,6 +248,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786); default: local")
     scene_batch_options(p, 1, "table folder (default results/studies)")
     p.add_argument("--export-batch", metavar="TABLE", help="write a yade-batch parameter table instead of running")
+    p.add_argument("--no-run", action="store_true", help="table and plot of the cases that finished; run nothing")
     p.set_defaults(func=cmd_study)
     p = sub.add_parser("pepper", help="duck-beak mechanism (seed 000): goal-attainment design and results/pepper/")
     p.add_argument("--starts", type=int, default=6, help="optimiser starts: Table 2's initial column + random")

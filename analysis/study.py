@@ -260,6 +260,8 @@ def run(paths, workers: int = 1, threads: int = 2, scheduler: str | None = None,
         if table is not None:
             n_tables += 1
             say(f"study {head['name']}: {len(table)}/{len(cases)} cases in {out / (head['name'] + '.csv')}")
+        else:
+            say(f"study {head['name']}: no case has finished in {runs_dir}; no table written")
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures or n_tables < len(studies) else 0
