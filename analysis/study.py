@@ -137,9 +137,9 @@ def theory_lines(x: str, values) -> dict[str, dict]:
 
 
 def plot_axes(table: pd.DataFrame) -> tuple[str, str | None, pd.DataFrame]:
-    """(x, group, table) for a study's plot: x is the first field the cases vary; each combination of the other
-    varied fields is a line ("variant", a field a case leaves at the preset's value not named; "reference"
-    when it names none). Cases that leave x itself unset are one point per run.
+    """(x, group, table) for a study's plot: x is the first field the cases vary, and each combination of the
+    other varied fields is one line, the "variant" column naming the fields a case sets ("reference" when it
+    sets none of them). If some case leaves x unset, every run is its own point.
 
     >>> t = pd.DataFrame({"seed": [1, 1, 2, 2], "depth": [None, 180.0, None, 180.0], "L2": [38.4, 26.6, 38.9, 35.3]})
     >>> x, group, t = plot_axes(t)

@@ -1,8 +1,9 @@
 """Bad input fails before anything runs, with the key and the allowed range in the message."""
 import pytest
 
-from analysis import cli
-from analysis.config import ConfigError, load_disk, load_seedling
+from analysis import cli, params_doc
+from analysis.config import (DISK_FIELDS, PRESET_FIELDS, SLEEVE_FIELDS, SOIL_FIELDS, ConfigError, load_disk,
+                             load_seedling)
 
 
 def write_disk(tmp_path, **change):
@@ -94,9 +95,7 @@ def test_a_negative_packing_seed_is_refused_by_bed_and_run():
 def test_the_parameter_page_is_current():
     """configs/README.md is rendered from the schemas and the committed configs: every key is on it with its
     range and value, and a config or schema changed without `./holes params` fails here."""
-    from analysis import params_doc
     page = params_doc.render()
-    from analysis.config import DISK_FIELDS, PRESET_FIELDS, SLEEVE_FIELDS, SOIL_FIELDS
     for key in (*DISK_FIELDS, *SLEEVE_FIELDS, *PRESET_FIELDS, *SOIL_FIELDS):
         assert f"| `{key}` |" in page, key
     assert "| `normal_cohesion` | [0, 1e+08] | Pa | 48000 | 48920 | 37830 |" in page

@@ -137,7 +137,6 @@ def test_a_slip_study_plots_the_theory_beside_the_holes(tmp_path):
     assert (tmp_path / "slip_depth.png").stat().st_size > 10_000      # l_H beside Table 1
 
 
-
 def test_no_run_tables_only_what_finished_and_says_when_nothing_has(tmp_path, capsys):
     from analysis import cli
     path = study_file(tmp_path, "none", {"slip": [0.0, 0.1]})
