@@ -25,14 +25,14 @@ import pandas as pd
 from analysis.batch import say
 from analysis.calibrate import cone_index, cone_run, same_cohesion, stored_cone
 from analysis.calibration_report import CAL, core_density
-from analysis.config import ROOT, ConfigError, Field, check_lateral, check_table, load_resolution, load_soil, read_toml
+from analysis.config import ROOT, SEED, ConfigError, Field, check_lateral, check_table, load_resolution, load_soil, read_toml
 from analysis.io import atomic_csv, stamp
 from scripts.bed import bed_key, check_size
 from scripts.cone import CONE_FIELDS
 
 CHECKS = ("replicate", "width", "ratio")
 CASE_FIELDS = {"check": Field(kind=str), "soil": Field(kind=str), "resolution": Field(kind=str),
-               "seed": Field(1, 10**6, kind=int), "lateral": Field(kind=str), **CONE_FIELDS}
+               "seed": SEED, "lateral": Field(kind=str), **CONE_FIELDS}
 COHESION = Field(0.0, 1e7, unit="Pa", meaning="bond strength, normal = shear")
 
 

@@ -33,7 +33,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (ROOT, ConfigError, Field, as_dict, check_table, load_resolution, load_soil,  # noqa: E402
+from analysis.config import (ROOT, SEED, ConfigError, Field, as_dict, check_table, load_resolution, load_soil,  # noqa: E402
                              parse_overrides, read_toml)
 from analysis.io import atomic_write  # noqa: E402
 from analysis.kinematics import TIP_SPHERE_RATIO  # noqa: E402
@@ -43,7 +43,7 @@ PLANTER_FIELDS = {"D": Field(20.0, 150.0, unit="mm", meaning="closed beak's base
                   "body_length": Field(0.0, 300.0, unit="mm", meaning="planter body modelled above the beak"),
                   "attachment": Field(kind=str)}
 SCENE_FIELDS = {"column": Field(kind=str), "soil": Field(kind=str), "resolution": Field(kind=str),
-                "seed": Field(0, 10 ** 6, kind=int), "width": Field(40.0, 1000.0, unit="mm"),
+                "seed": SEED, "width": Field(40.0, 1000.0, unit="mm"),
                 "below": Field(10.0, 300.0, unit="mm"), "margin": Field(0.0, 500.0, unit="mm"),
                 "clearance": Field(1.0, 100.0, unit="mm"), "relax": Field(0.0, 2.0, unit="s"),
                 "settled_speed": Field(0.001, 1.0, unit="m/s", meaning="fastest grain when the soil counts as settled"),
