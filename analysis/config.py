@@ -347,10 +347,10 @@ def as_dict(obj) -> dict:
 
 SOIL_FIELDS = {
     "young": Field(1e5, 1e10, unit="Pa", meaning="contact modulus"),
-    "poisson": Field(0.0, 0.5, hi_open=True, meaning="contact shear/normal stiffness ratio source"),
+    "poisson": Field(0.0, 0.5, hi_open=True, meaning="contact shear stiffness / normal stiffness (YADE's FrictMat poisson)"),
     "friction_deg": Field(0.0, 60.0, unit="deg", meaning="inter-particle friction angle"),
-    "rolling_stiffness": Field(0.0, 10.0, meaning="alphaKr"),
-    "rolling_friction": Field(0.0, 5.0, meaning="etaRoll"),
+    "rolling_stiffness": Field(0.0, 10.0, meaning="alphaKr: rolling stiffness / shear stiffness"),
+    "rolling_friction": Field(0.0, 5.0, meaning="etaRoll: plastic rolling moment limit / (radius · normal force)"),
     "normal_cohesion": Field(0.0, 1e8, unit="Pa", meaning="tensile bond strength per contact area"),
     "shear_cohesion": Field(0.0, 1e8, unit="Pa", meaning="shear bond strength per contact area"),
     "damping": Field(0.0, 0.9, meaning="YADE local damping in tool scenes"),

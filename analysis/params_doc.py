@@ -86,7 +86,7 @@ def render() -> str:
            *table(SOIL_FIELDS, soils), "",
            "## `seedling.toml` [seedling]: the pot seedling (seed 001 §1.1)", "",
            *table(SEEDLING_FIELDS, {"value": seedling["seedling"]}, seedling.get("source", {})), "",
-           "Pass criteria (§4.2), one table per reading: a hole passes when each metric exceeds its threshold, "
+           "Pass criteria (§4.2), one row per reading: a hole passes when each metric exceeds its threshold, "
            "a seedling dimension optionally times √2.", "",
            "| reading | " + " | ".join(next(iter(seedling["criteria"].values()))) + " |",
            "|---|" + "---|" * len(next(iter(seedling["criteria"].values()))),
