@@ -5,10 +5,11 @@ Each scene is its own YADE process (scripts/disk.py) in results/runs/<id>/, name
 parameters; a finished run (summary.json present) is reused, a failed one is reported with its log and the
 others go on. All inputs are checked before the first scene starts.
 
-Every run measured here is also kept, small, in <out>/comparison/runs/<id>/ (holes.csv, summary.json,
-config.json; committed with the table). With `kept`, a table pools runs made on other machines: a run whose
-folder is not on this machine but is kept there is neither run again nor re-measured, its holes are read as
-they were measured (the file's first line says when). Without it, every run not on this machine is run.
+Every run measured here is also kept in <out>/comparison/runs/<id>/ (holes.csv, summary.json, config.json and
+the final grains, state.npz; committed with the table). With `kept`, a table pools runs made on other machines:
+a run whose folder is not on this machine but is kept there is not run again; it is measured again from its
+kept state.npz, so a change of the metrology reaches it, or, kept before the states were (2026-11-24), its holes
+are read as they were measured (the file's first line says when). Without it, every run not on this machine is run.
 """
 from __future__ import annotations
 
@@ -22,6 +23,8 @@ from analysis import compare, measure
 from analysis.batch import finished, plan_case, run_all, say, scene_args
 from analysis.config import ROOT, load_criteria
 from analysis.io import atomic_csv, atomic_write, read_table, stamp
+
+KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # a run's files kept beside the table
 
 
 def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, parallel: int = 1,
@@ -55,6 +58,9 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
             tables.append(measure.run(runs_dir / c["id"]))
             keep(runs_dir / c["id"], kept / c["id"])
             local.append(c)
+        elif c["id"] in elsewhere and (kept / c["id"] / "state.npz").exists():
+            say(f"compare: {c['id']} is not on this machine; measured again from its kept grains ({kept / c['id']})")
+            tables.append(measure.run(kept / c["id"], pictures=False))
         elif c["id"] in elsewhere:
             say(f"compare: {c['id']} is not on this machine; its holes as measured earlier ({kept / c['id']})")
             tables.append(read_table(kept / c["id"] / "holes.csv"))
@@ -80,9 +86,10 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
 
 
 def keep(folder: Path, to: Path):
-    """The small part of a finished, measured run, kept beside the table: holes.csv, summary.json, config.json."""
-    for name in ("holes.csv", "summary.json", "config.json"):
-        atomic_write(to / name, (folder / name).read_text())
+    """What measuring a finished run needs, kept beside the table: holes.csv, summary.json, config.json and its
+    final grains (state.npz: 0.7 MB for a quick run, about 3 for a paper one; not the checkpoint or the time series)."""
+    for name in KEPT:
+        atomic_write(to / name, (folder / name).read_bytes())
 
 
 def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, local, seeds, command: str,

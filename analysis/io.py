@@ -38,12 +38,12 @@ def machine() -> str:
     return f"{platform.machine()} {os.cpu_count()} cores"
 
 
-def atomic_write(path: Path, text: str):
-    """Write text to path via a temporary file and a rename, so a crash never leaves half a file."""
+def atomic_write(path: Path, data: str | bytes):
+    """Write text (or bytes) to path via a temporary file and a rename, so a crash never leaves half a file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
+    tmp.write_bytes(data) if isinstance(data, bytes) else tmp.write_text(data)
     tmp.replace(path)
 
 

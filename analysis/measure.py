@@ -58,13 +58,14 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     return pd.DataFrame(rows, columns=COLUMNS), holes, z_surface, surf, loaded
 
 
-def run(folder, cell: float = 1.0) -> pd.DataFrame:
-    """Measure a finished run; write holes.csv and the pictures into its folder."""
+def run(folder, cell: float = 1.0, pictures: bool = True) -> pd.DataFrame:
+    """Measure a finished run; write holes.csv and (unless not `pictures`) the pictures into its folder."""
     folder = Path(folder)
     table, holes, z_surface, surf, loaded = measure_run(folder, cell)
     table = table.round(2)                  # what holes.csv holds, so a kept run's table reads the same
     atomic_csv(table, folder / "holes.csv", stamp(f"./holes measure {folder.name}") + "; mm, seed 001 §4.2")
-    plot(folder, loaded, holes, z_surface, surf)
+    if pictures:
+        plot(folder, loaded, holes, z_surface, surf)
     return table
 
 

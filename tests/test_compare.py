@@ -53,11 +53,25 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     assert len(rings.cut_slopes(cuts)) == 2
     # the run kept beside the table stands in for a run folder this machine does not have
     kept = tmp_path / "comparison" / "runs"
-    assert {p.name for p in next(kept.iterdir()).iterdir()} == {"holes.csv", "summary.json", "config.json"}
+    kept_run = next(kept.iterdir())
+    assert {p.name for p in kept_run.iterdir()} == {"holes.csv", "summary.json", "config.json", "state.npz"}
+
+    def lengthen_first_L0():                  # a kept holes.csv that disagrees with the kept grains by 10 mm
+        held = read_table(kept_run / "holes.csv")
+        held.loc[0, "L0"] += 10.0
+        held.to_csv(kept_run / "holes.csv", index=False)
+
+    lengthen_first_L0()                       # with the grains kept, the run is measured again: the table holds
     again = compare("--soils", "clay", "--no-run", "--kept", dirs=(tmp_path / "elsewhere", scene_dirs[1]), out=tmp_path)
-    assert again.returncode == 0 and "not on this machine" in again.stderr, again.stderr[-3000:]
+    assert again.returncode == 0 and "measured again from its kept grains" in again.stderr, again.stderr[-3000:]
     assert read_table(tmp_path / "comparison.csv").equals(table)
     assert "Not on this machine" in (tmp_path / "comparison.md").read_text()
+    (kept_run / "state.npz").unlink()         # kept before the states were: its holes read as they were measured
+    lengthen_first_L0()
+    earlier = compare("--soils", "clay", "--no-run", "--kept", dirs=(tmp_path / "elsewhere", scene_dirs[1]), out=tmp_path)
+    assert earlier.returncode == 0 and "its holes as measured earlier" in earlier.stderr, earlier.stderr[-3000:]
+    held = read_table(tmp_path / "comparison.csv").set_index("metric")
+    assert held.loc["L0", "sim_mean"] == pytest.approx(table.set_index("metric").loc["L0", "sim_mean"] + 5.0, abs=0.01)
     partial = compare("--soils", "clay,sand", "--no-run", "--kept", dirs=(tmp_path / "elsewhere", scene_dirs[1]),
                       out=tmp_path)                           # sand was never run: the table says it is missing
     assert partial.returncode == 0, partial.stderr[-3000:]
