@@ -297,7 +297,8 @@ def build_parser() -> argparse.ArgumentParser:
     scene_batch_options(p, 2, "where comparison.csv/.md and comparison/ go (default results)")
     p.add_argument("--no-run", action="store_true", help="measure the finished runs only; run nothing")
     p.add_argument("--kept", action="store_true", help="a run not on this machine but kept beside the table "
-                   "(<out>/comparison/runs/) is read from there, not run: pool runs made elsewhere")
+                   "(<out>/comparison/runs/) is not run: it is measured again from its kept grains (state.npz), or "
+                   "its kept holes.csv is read if it has none; pool runs made elsewhere")
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "
                        "cone-to-particle ratio, core density (results/calibration/cone_checks.csv, .png)")
