@@ -9,6 +9,7 @@ import time
 
 import pytest
 
+from analysis import cli
 from analysis.config import ROOT, ConfigError
 from analysis.io import read_table
 from analysis.batch import scene_args
@@ -138,12 +139,12 @@ def test_a_slip_study_plots_the_theory_beside_the_holes(tmp_path):
 
 
 def test_no_run_tables_only_what_finished_and_says_when_nothing_has(tmp_path, capsys):
-    from analysis import cli
     path = study_file(tmp_path, "none", {"slip": [0.0, 0.1]})
     args = ["study", str(path), "--no-run", "--runs-dir", str(tmp_path / "runs"), "--out", str(tmp_path / "out")]
     assert cli.main(args) == 1
     assert "no case has finished" in capsys.readouterr().err
     assert not (tmp_path / "runs").exists() and not (tmp_path / "out").exists()      # nothing was run
+
 
 def test_a_one_hole_study_plots_without_an_all_nan_metric(tmp_path):
     """One hole per case has no spacing C: its panel is left empty, not drawn from NaN (a RuntimeWarning)."""
