@@ -173,14 +173,20 @@ def cmd_calibration_report(args) -> int:
 def cmd_bench(args) -> int:
     """`bench beds`: every bed's own measured settling cost (from its metadata) with the machine;
     `bench runs`: every finished disk run's cost (in --runs-dir), and the wall time per 200 mm of travel (one
-    hole); duck-beak runs, which have no travel, are left out;
+    hole), added to the runs already tabulated; duck-beak runs, which have no travel, are left out;
     `bench speed-vs-error`, `bench economies`: analysis/bench.py; `bench peer`: scripts/peer.py (LIGGGHTS
-    beside YADE)."""
+    beside YADE); `bench collider`: scripts/collider_bench.py (contact detection settings from a run's
+    checkpoint)."""
     import json
     import pandas as pd
     from analysis.io import atomic_csv, machine, stamp
     if args.what == "peer":
         return run_scene("peer.py", [])
+    if args.what == "collider":
+        if not args.run:
+            print("bench collider: give --run results/runs/<id>, a run with a checkpoint", file=sys.stderr)
+            return 2
+        return run_scene("collider_bench.py", [args.run, "--steps", str(args.steps), "--threads", str(args.threads)])
     if args.what in ("speed-vs-error", "economies"):
         from analysis import bench
         go = bench.run if args.what == "speed-vs-error" else bench.run_economies
@@ -199,7 +205,12 @@ def cmd_bench(args) -> int:
         if not rows:
             print("bench: no finished runs in results/runs; make one with ./holes run", file=sys.stderr)
             return 1
-        atomic_csv(pd.DataFrame(rows), ROOT / "results/bench/runs.csv", stamp("./holes bench runs"))
+        out, table = ROOT / "results/bench/runs.csv", pd.DataFrame(rows)
+        if out.exists():                    # runs made on earlier machines stay; a run measured again is replaced
+            from analysis.io import read_table
+            earlier = read_table(out)
+            table = pd.concat([earlier[~earlier.run.isin(table.run)], table]).sort_values("run")
+        atomic_csv(table, out, stamp("./holes bench runs") + "; rows of runs not on this machine kept from before")
         print(pd.DataFrame(rows).to_string(index=False))
         return 0
     rows = []
@@ -316,8 +327,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs; "
                        "`bench speed-vs-error` runs one clay hole at several resolutions and `bench economies` "
                        "what each scene economy costs in error (analysis/bench.py); "
-                       "`bench peer`: one bed and punch in LIGGGHTS and in YADE (scripts/peer.py)")
-    p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "economies", "peer"])
+                       "`bench peer`: one bed and punch in LIGGGHTS and in YADE (scripts/peer.py); "
+                       "`bench collider --run R`: contact detection settings on run R's strip from its checkpoint "
+                       "(scripts/collider_bench.py)")
+    p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "economies", "peer", "collider"])
+    p.add_argument("--run", help="collider: a run folder with a checkpoint")
+    p.add_argument("--steps", type=int, default=3000, help="collider: steps per setting (default 3000)")
     p.add_argument("--workers", type=int,
                    help="speed-vs-error, economies: cases at a time (default: cores / threads)")
     scene_batch_options(p, 1, "speed-vs-error, economies: table folder (default results/bench)")

@@ -50,6 +50,10 @@ RECORD_DT = 5e-4            # s of simulated time between records
 CHECKPOINT_EVERY = 600.0    # s of wall time between checkpoints of an unfinished run (0: none)
 CHECKPOINT = "checkpoint.json"   # the run's state, naming the scene file it goes with
 GUARD_EVERY = 200           # steps between stability checks
+# contact detection: every grain's box keeps a 0.5 mm margin and the collider runs when one has moved past it. YADE's
+# default (margin 0.5 r, cut to a tenth for grains at rest: targetInterv 100) ran it at every step of the default
+# strip; this took 0.70 of that wall time there (`./holes bench collider`, README issue 7)
+COLLIDER = {"verletDist": 5e-4, "targetInterv": 0}
 GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100   # grains meet grains, walls (mask 1) and tools (bit 2);
 # tools meet grains only: bodies with the same mask sharing a bit with the collider's avoidSelfInteractionMask never meet
 GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
@@ -153,7 +157,10 @@ def punch_mesh(disk, sleeve, a: float):
 
 def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: Path | None = None,
              vtk: bool = False, quiet: bool = False, checkpoint_every: float = CHECKPOINT_EVERY,
-             resume: bool = True) -> dict:
+             resume: bool = True, stop_at: int | None = None, collider: dict | None = None) -> dict:
+    """The run (summary.json), going on from its checkpoint if it has one. `stop_at` (step) and `collider`
+    (InsertionSortCollider attributes over COLLIDER's, set after any loading) are for benchmarks (scripts/collider_bench.py):
+    a run stopped at `stop_at` before its end writes nothing more and returns that segment's cost and grains."""
     from scripts import bed as bedmod
     from analysis.config import disk_from_dict, Sleeve
     from analysis.kinematics import Layout
@@ -327,7 +334,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                 "potential": booked.get("gravWork", 0.0),
                 **{k: v for k, v in booked.items() if k not in ("kinetic", "gravWork", "elastPotential")}}
 
-    if saved.exists():                      # go on from where an earlier process of this run stopped
+    resumed = saved.exists()
+    if resumed:                             # go on from where an earlier process of this run stopped
         ck = json.loads(saved.read_text())
         O.load(str(out / ck["scene"]))
         if O.iter != ck["iter"]:
@@ -343,13 +351,21 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         energy0, vmax = ck["energy0"], ck["vmax"]
         wall0, cpu0 = wall0 - ck["wall_s"], cpu0 - ck["cpu_s"]
         log(f"run {params['id']}: resumed at step {O.iter} of {n_steps} ({ck['wall_s']:.0f} s of wall time done)")
-    else:
+    detector = next(e for e in O.engines if e.label == "collider")
+    for key, value in {**COLLIDER, **(collider or {})}.items():
+        setattr(detector, key, value)
+    if not resumed:
         O.run(1, True)                      # the bed's contacts exist from here on: the balance starts here
         energy0 = energy_now()
         vmax = 0.0
+    n_end = min(n_steps, stop_at or n_steps)
+    if n_end < n_steps:                     # a benchmark's segment: where its time goes, per engine
+        O.timingEnabled = True
+    exec0 = [e.execTime for e in O.engines]
+    iter0, detections0, loop0 = O.iter, detector.numAction, time.time()
     last_save = time.time()
-    while O.iter < n_steps:
-        O.run(min(GUARD_EVERY, n_steps - O.iter), True)
+    while O.iter < n_end:
+        O.run(min(GUARD_EVERY, n_end - O.iter), True)
         vmax = max(vmax, guard(grain_ids, meta, z_surface, GUARD_SPEED * tip_speed, 0.5 * bed_mass * tip_speed ** 2))
         if checkpoint_every and time.time() - last_save > checkpoint_every and O.iter < n_steps:
             save_checkpoint(out, {"st": st, "energy0": energy0, "vmax": vmax, "iter": O.iter,
@@ -359,13 +375,19 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             raise RuntimeError(f"the disk sank {-1000 * st['z']:.1f} mm under W = {weight:g} N at t = {O.time:.4f} s: "
                                f"its tips reach the strip's floor ({preset['depth']:g} mm deep); a lighter W or a "
                                "deeper strip")
-        if O.iter % report < GUARD_EVERY or O.iter >= n_steps:
+        if O.iter % report < GUARD_EVERY or O.iter >= n_end:
             done = O.iter / n_steps
             formed = sum(1 for k in range(len(lay.hole_x)) if angle(k) < lay.phi_out)
             el = time.time() - wall0
             log(f"run: {100 * done:3.0f} %  travel {v * O.time * 1000:5.0f}/{v * lay.t_end * 1000:.0f} mm  "
                 f"holes {formed}/{len(lay.hole_x)}  wall {el:.0f} s  ETA {el / max(done, 1e-9) * (1 - done):.0f} s"
                 + (f"  ω {st['omega']:.2f} rad/s" if free else "") + (f"  sink {-1000 * st['z']:.1f} mm" if weight else ""))
+    if O.iter < n_steps:                    # a benchmark's segment
+        import numpy as np
+        return {"steps": O.iter - iter0, "wall_s": time.time() - loop0, "detections": detector.numAction - detections0,
+                "interactions": len(O.interactions), "contacts": O.interactions.countReal(), "particles": n_particles,
+                "engine_s": {e.label or type(e).__name__: (e.execTime - t0) * 1e-9 for e, t0 in zip(O.engines, exec0)},
+                "pos": np.array([tuple(O.bodies[i].state.pos) for i in grain_ids])}
     wall, cpu = time.time() - wall0, time.process_time() - cpu0
     energy = energy_balance(energy0, energy_now())
     log(f"run: energy {energy}")

@@ -159,6 +159,18 @@ def test_a_killed_run_goes_on_from_its_checkpoint(scene_dirs, tmp_path):
     proc.wait()
     ck = json.loads((folder / "checkpoint.json").read_text())
     assert (folder / ck["scene"]).exists() and not (folder / "summary.json").exists()
+    # the collider benchmark runs segments from this checkpoint in a scratch copy and leaves the run as it was
+    table = tmp_path / "collider.csv"
+    bench = subprocess.run([sys.executable, str(ROOT / "scripts/collider_bench.py"), str(folder), "--steps", "200",
+                            "--threads", "1", "--out", str(table)], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert bench.returncode == 0, bench.stderr[-3000:]
+    segments = pd.read_csv(table, comment="#")
+    assert len(segments) == 5 and (segments.steps == 200).all() and (segments.wall_s > 0).all()
+    assert (segments.detections > 0).all() and (segments.contacts > 0).all() and (segments.share_contacts > 0).all()
+    shares = segments.filter(like="share_").sum(axis=1)
+    assert ((shares > 0.3) & (shares < 1.05)).all(), shares      # the engines' timed parts within the wall time
+    assert segments.drift_rms_mm.iloc[0] == 0 and (segments.drift_max_mm < 5).all()   # 200 steps: grains barely move
+    assert json.loads((folder / "checkpoint.json").read_text()) == ck and not (folder / "summary.json").exists()
     r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=1500)
     assert r.returncode == 0, r.stderr[-3000:]
     resumed_at = int(r.stderr.split("resumed at step ")[1].split()[0])

@@ -1,0 +1,97 @@
+"""Benchmark: the contact detection's settings on a whole strip, from a run's checkpoint (issue 7).
+
+    .venv/bin/python scripts/collider_bench.py results/runs/<id> [--steps 3000] [--threads 2]
+    # or: ./holes bench collider --run results/runs/<id>
+
+YADE's InsertionSortCollider re-sorts the bounding boxes whenever a grain may have moved past its box's margin
+(`verletDist`, by default half the smallest radius). With `targetInterv = 100` (YADE's default) a grain at
+rest gets a margin of only 1/10 of that, so the first grains a punch stirs set the detection off again; with
+`targetInterv = 0` every grain keeps the whole margin. Each setting below runs the same `steps` from the run's
+checkpoint (punches in the soil), in a scratch copy (the run is left as it was), and the first setting runs
+twice: the two realisations of the same physics (threads add forces in varying order; granular flow amplifies
+the round-off) show how far grains drift apart when nothing changes, the yardstick for the other settings'
+drift. Writes results/bench/collider.csv: per setting the wall time of the steps, particle-steps/s, detection
+runs, interactions and real contacts at the end, the grains' drift from the first realisation (RMS and
+largest, mm), and the share of the wall time each part of the scene took (YADE's `O.timingEnabled`: the
+collider, the contact loop, Newton's integration with the force reset, the disk's Python hook, the tools'
+kinematic engines; the rest is the stability guard and YADE's loop).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from analysis.config import ROOT  # noqa: E402
+from analysis.io import atomic_csv, machine, stamp  # noqa: E402
+
+SETTINGS = [                # (name, InsertionSortCollider attributes); the first is the scenes' setting, run twice
+    ("YADE default: verletDist 0.5 r, targetInterv 100", {"verletDist": -0.5, "targetInterv": 100}),
+    ("the same again", {"verletDist": -0.5, "targetInterv": 100}),
+    ("verletDist 0.5 r, targetInterv 0", {"verletDist": -0.5, "targetInterv": 0}),
+    ("verletDist 0.5 mm, targetInterv 0", {"verletDist": 5e-4, "targetInterv": 0}),
+    ("verletDist 1 mm, targetInterv 0", {"verletDist": 1e-3, "targetInterv": 0}),
+]
+
+PARTS = {"collider": "collider", "InteractionLoop": "contacts", "newton": "integration", "hook": "hook",
+         "ForceResetter": "integration"}     # the scene's engines (YADE's timing) by part; the rest move the tools
+
+
+def main(argv=None) -> int:
+    import numpy as np
+    import pandas as pd
+    from scripts import disk
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("run", help="a run folder with a checkpoint (results/runs/<id>)")
+    p.add_argument("--steps", type=int, default=3000, help="steps per setting (default 3000)")
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--out", default=str(ROOT / "results/bench/collider.csv"))
+    a = p.parse_args(argv)
+    run = Path(a.run)
+    if not (run / disk.CHECKPOINT).exists() or not (run / "config.json").exists():
+        print(f"bench collider: {run} has no checkpoint.json and config.json: give a run stopped while running",
+              file=sys.stderr)
+        return 2
+    if not 200 <= a.steps <= 100_000:
+        print(f"bench collider: --steps = {a.steps} is out of range: allowed 200-100000", file=sys.stderr)
+        return 2
+    params = json.loads((run / "config.json").read_text())
+    ck = json.loads((run / disk.CHECKPOINT).read_text())
+    rows, ref = [], None
+    with tempfile.TemporaryDirectory(prefix="collider-bench-") as scratch:
+        for k, (name, attrs) in enumerate(SETTINGS):
+            folder = Path(scratch) / str(k) / params["id"]
+            folder.mkdir(parents=True)
+            for f in (disk.CHECKPOINT, ck["scene"]):
+                shutil.copy(run / f, folder / f)
+            print(f"bench collider: {name}, {a.steps} steps from step {ck['iter']}", file=sys.stderr, flush=True)
+            seg = disk.main_run(params, a.threads, folder.parent, checkpoint_every=0, quiet=True,
+                                stop_at=ck["iter"] + a.steps, collider=attrs)
+            pos, engine_s = seg.pop("pos"), seg.pop("engine_s")
+            share = {part: sum(t for name, t in engine_s.items() if PARTS.get(name, "kinematics") == part) / seg["wall_s"]
+                     for part in ("collider", "contacts", "integration", "hook", "kinematics")}
+            ref = pos if ref is None else ref
+            drift = 1e3 * np.linalg.norm(pos - ref, axis=1)
+            rows.append({"setting": name, **{f"collider_{key}": v for key, v in attrs.items()},
+                         "from_step": ck["iter"], "steps": seg["steps"], "particles": seg["particles"],
+                         "wall_s": round(seg["wall_s"], 1),
+                         "particle_steps_per_s": round(seg["particles"] * seg["steps"] / seg["wall_s"]),
+                         "detections": seg["detections"], "interactions": seg["interactions"],
+                         "contacts": seg["contacts"], "drift_rms_mm": round(float(np.sqrt(np.mean(drift ** 2))), 4),
+                         "drift_max_mm": round(float(drift.max()), 3),
+                         **{f"share_{part}": round(v, 3) for part, v in share.items()},
+                         "threads": a.threads, "machine": machine()})
+            print(pd.DataFrame(rows[-1:]).to_string(index=False), file=sys.stderr, flush=True)
+    table = pd.DataFrame(rows)
+    atomic_csv(table, Path(a.out), stamp(f"./holes bench collider --run {a.run} --steps {a.steps}") +
+               f"; run {params['id']}")
+    print(table.to_string(index=False))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
