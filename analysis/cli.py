@@ -179,7 +179,7 @@ def cmd_bench(args) -> int:
     checkpoint)."""
     import json
     import pandas as pd
-    from analysis.io import atomic_csv, machine, stamp
+    from analysis.io import atomic_csv, machine, read_table, stamp
     if args.what == "peer":
         return run_scene("peer.py", [])
     if args.what == "collider":
@@ -205,13 +205,13 @@ def cmd_bench(args) -> int:
         if not rows:
             print("bench: no finished runs in results/runs; make one with ./holes run", file=sys.stderr)
             return 1
-        out, table = ROOT / "results/bench/runs.csv", pd.DataFrame(rows)
+        out, here = ROOT / "results/bench/runs.csv", pd.DataFrame(rows)
+        table = here
         if out.exists():                    # runs made on earlier machines stay; a run measured again is replaced
-            from analysis.io import read_table
             earlier = read_table(out)
-            table = pd.concat([earlier[~earlier.run.isin(table.run)], table]).sort_values("run")
+            table = pd.concat([earlier[~earlier.run.isin(here.run)], here]).sort_values("run")
         atomic_csv(table, out, stamp("./holes bench runs") + "; rows of runs not on this machine kept from before")
-        print(pd.DataFrame(rows).to_string(index=False))
+        print(here.to_string(index=False))
         return 0
     rows = []
     for meta_path in sorted((ROOT / "results/beds").glob("*.json")):

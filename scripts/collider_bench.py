@@ -8,9 +8,9 @@ YADE's InsertionSortCollider re-sorts the bounding boxes whenever a grain may ha
 rest gets a margin of only 1/10 of that, so the first grains a punch stirs set the detection off again; with
 `targetInterv = 0` every grain keeps the whole margin. Each setting below runs the same `steps` from the run's
 checkpoint (punches in the soil), in a scratch copy (the run is left as it was), and the first setting runs
-twice: the two realisations of the same physics (threads add forces in varying order; granular flow amplifies
-the round-off) show how far grains drift apart when nothing changes, the yardstick for the other settings'
-drift. Writes results/bench/collider.csv: per setting the wall time of the steps, particle-steps/s, detection
+twice, to show whether the same setting repeats itself (on the default strip it did, bit for bit), so that
+the other settings' drift is theirs: a different contact order changes the round-off, which granular flow
+amplifies. Writes results/bench/collider.csv: per setting the wall time of the steps, particle-steps/s, detection
 runs, interactions and real contacts at the end, the grains' drift from the first realisation (RMS and
 largest, mm), and the share of the wall time each part of the scene took (YADE's `O.timingEnabled`: the
 collider, the contact loop, Newton's integration with the force reset, the disk's Python hook, the tools'
@@ -29,11 +29,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.config import ROOT  # noqa: E402
 from analysis.io import atomic_csv, machine, stamp  # noqa: E402
 
-SETTINGS = [                # (name, InsertionSortCollider attributes); the first is the scenes' setting, run twice
+SETTINGS = [                # (name, InsertionSortCollider attributes); the first, YADE's default, runs twice
     ("YADE default: verletDist 0.5 r, targetInterv 100", {"verletDist": -0.5, "targetInterv": 100}),
     ("the same again", {"verletDist": -0.5, "targetInterv": 100}),
     ("verletDist 0.5 r, targetInterv 0", {"verletDist": -0.5, "targetInterv": 0}),
-    ("verletDist 0.5 mm, targetInterv 0", {"verletDist": 5e-4, "targetInterv": 0}),
+    ("verletDist 0.5 mm, targetInterv 0", {"verletDist": 5e-4, "targetInterv": 0}),   # disk.COLLIDER since 2026-11-25
     ("verletDist 1 mm, targetInterv 0", {"verletDist": 1e-3, "targetInterv": 0}),
 ]
 

@@ -169,7 +169,8 @@ def test_a_killed_run_goes_on_from_its_checkpoint(scene_dirs, tmp_path):
     assert (segments.detections > 0).all() and (segments.contacts > 0).all() and (segments.share_contacts > 0).all()
     shares = segments.filter(like="share_").sum(axis=1)
     assert ((shares > 0.3) & (shares < 1.05)).all(), shares      # the engines' timed parts within the wall time
-    assert segments.drift_rms_mm.iloc[0] == 0 and (segments.drift_max_mm < 5).all()   # 200 steps: grains barely move
+    # the first setting's repeat (one thread) is the same run bit for bit; 200 steps: grains barely move
+    assert (segments.drift_max_mm.iloc[:2] == 0).all() and (segments.drift_max_mm < 5).all()
     assert json.loads((folder / "checkpoint.json").read_text()) == ck and not (folder / "summary.json").exists()
     r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=1500)
     assert r.returncode == 0, r.stderr[-3000:]
