@@ -17,6 +17,10 @@ Parts:
   each sleeve's axial travel s is integrated from the soil's force on it, its return spring
   (preload + stiffness·s), viscous damping, gravity and the centrifugal pull, between its stop and `travel`;
 - recorder: punch and sleeve forces, sleeve travel and the disk's position, every RECORD_DT of simulated time.
+- `--awake BEHIND,AHEAD` (mm, optional): only the soil near the tools moves. Grains more than AHEAD ahead of
+  the tools' reach sleep until the window comes, and those more than BEHIND behind it sleep once they are
+  still (slower than RESTLESS × the tip speed): held fixed, they push on awake grains and are pushed on, but
+  the contact loop skips sleeper against sleeper (sleep_outside). The window moves every WINDOW_STEP mm.
 
 A stability guard stops the run, naming the cause, on NaN, a grain faster than GUARD_SPEED × the tip speed,
 a grain outside the box, or kinetic energy above that of the whole bed moving at the tip speed.
@@ -56,12 +60,17 @@ GUARD_EVERY = 200           # steps between stability checks
 COLLIDER = {"verletDist": 5e-4, "targetInterv": 0}
 GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100   # grains meet grains, walls (mask 1) and tools (bit 2);
 # tools meet grains only: bodies with the same mask sharing a bit with the collider's avoidSelfInteractionMask never meet
+SLEEP_MASK = GRAIN_MASK | 0b1000   # a sleeping grain (--awake): meets awake grains, walls and tools, not other sleepers
+AVOID_SELF = TOOL_SELF | 0b1000    # the collider's avoidSelfInteractionMask: tool parts and sleepers never meet their kind
+WINDOW_STEP = 5.0           # mm of the axis's travel between moves of the awake window (--awake)
+RESTLESS = 0.02             # × the tip speed: a grain behind the window sleeps only when slower than this
 GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
 ESCAPE, ESCAPE_ABOVE = 0.02, 0.3   # m: a grain this far past the walls or floor, or above the surface, has left
 RUN_FIELDS = {"slip": Field(0.0, 0.9, meaning="slip rate δ"),
               "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
               "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)"),
-              "weight": Field(1.0, 5000.0, unit="N", meaning="load the disk carries (free mode)")}
+              "weight": Field(1.0, 5000.0, unit="N", meaning="load the disk carries (free mode)"),
+              "awake": Field(0.0, 1000.0, unit="mm", meaning="awake soil behind / ahead of the tools' reach")}
 MODES = ("prescribed", "free")
 
 
@@ -75,7 +84,7 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
          width: float | None = None, depth: float | None = None, overrides: dict | None = None,
          disk_inertia: float = 0.05, lead_in: int | None = None, tool: dict | None = None,
          resolution: str | None = None, dt_safety: float | None = None, weight: float | None = None,
-         lateral: str | None = None) -> dict:
+         lateral: str | None = None, awake: tuple | list | None = None) -> dict:
     """Every parameter of the run, checked, before YADE starts."""
     if mode not in MODES:
         raise ConfigError(f"mode = {mode!r}: allowed {', '.join(MODES)}")
@@ -95,6 +104,10 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
             raise ConfigError(f"run.weight = {weight:g} N needs mode = 'free': allowed only where the soil drives "
                               "the disk")
         RUN_FIELDS["weight"].check("run.weight", weight)
+    if awake is not None:
+        if len(awake) != 2:
+            raise ConfigError(f"run.awake = {awake!r}: allowed two lengths BEHIND,AHEAD in mm")
+        awake = [RUN_FIELDS["awake"].check(f"run.awake.{side}", float(x)) for side, x in zip(("behind", "ahead"), awake)]
     if preset.depth <= disk.penetration + 20:
         raise ConfigError(f"preset.depth = {preset.depth:g} is out of range: allowed > penetration + 20 = "
                           f"{disk.penetration + 20:g} mm")
@@ -109,6 +122,8 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
               "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}
     if weight is not None:                  # only then: the ids of runs without a weight stay as they were
         params["weight"] = weight
+    if awake is not None:                   # likewise
+        params["awake_mm"] = awake
     # the layout is in the id, rounded (the last bits of its trigonometry may differ between machines), so a
     # change of the geometry's code is a new run, never a reused folder
     rounded = {k: ([round(x, 6) for x in v] if isinstance(v, list) else round(v, 6))
@@ -235,12 +250,14 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     travel = sleeve.travel * mm
     st = {"theta": 0.0, "omega": omega, "s": [0.0] * disk.N, "sdot": [0.0] * disk.N, "s_max": [0.0] * disk.N,
           "tip_min": [math.inf] * disk.N, "next_record": 0.0, "rows": [], "work_tool": 0.0, "z": 0.0, "vz": 0.0,
-          "z_min": 0.0, "z_max": 0.0}
+          "z_min": 0.0, "z_max": 0.0, "window_x": -math.inf, "window_energy": 0.0, "awake_steps": 0.0,
+          "slept_vmax": 0.0, "front_vmax": 0.0}
     x_dir, y_dir, z_dir = Vector3(1, 0, 0), Vector3(0, 1, 0), Vector3(0, 0, 1)
     window = (lay.phi_out - math.radians(15), lay.phi_in + math.radians(15))
     tip_speed = v + omega * lay.tip_reach * mm
     free = params["mode"] == "free"
     weight = params.get("weight")
+    awake = params.get("awake_mm")          # [behind, ahead] mm: the soil awake round the tools (None: all of it)
     floor_room = (preset["depth"] - disk.penetration) * mm - 2 * meta["radius"] if weight else math.inf
     t_load = lay.phi0 / omega               # W grows from 0 while the first punch goes down: no drop onto one tip
 
@@ -314,7 +331,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                                fp[0], fp[2], -fs.dot(ax), st["s"][k]))
 
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[
-        PyRunner(command="hook()", iterPeriod=1, label="hook"), disk_engine, *plate_engines], avoid_self_mask=TOOL_SELF)
+        PyRunner(command="hook()", iterPeriod=1, label="hook"), disk_engine, *plate_engines], avoid_self_mask=AVOID_SELF)
     import builtins
     builtins.hook = hook                    # PyRunner evaluates its command in YADE's global namespace
     O.dt = preset["dt_safety"] * utils.PWaveTimeStep()
@@ -331,7 +348,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         nonviscDamp."""
         booked = dict(O.energy.items())
         return {"work_tool": st["work_tool"], "kinetic": utils.kineticEnergy(), "elastic": law.elasticEnergy(),
-                "potential": booked.get("gravWork", 0.0),
+                "potential": booked.get("gravWork", 0.0), **({"window": st["window_energy"]} if awake else {}),
                 **{k: v for k, v in booked.items() if k not in ("kinetic", "gravWork", "elastPotential")}}
 
     resumed = saved.exists()
@@ -354,10 +371,32 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     detector = next(e for e in O.engines if e.label == "collider")
     for key, value in {**COLLIDER, **(collider or {})}.items():
         setattr(detector, key, value)
+    # the tools touch the soil within sqrt(R² - H²) of the axis (a punch's tip at the surface), widened by the
+    # punch's radius
+    reach_x = (math.sqrt(max(disk.R ** 2 - lay.H0 ** 2, 0.0)) + disk.d) * mm
+    n_awake = [sum(1 for i in grain_ids if O.bodies[i].mask != SLEEP_MASK)]
+
+    def move_window():
+        """Wake the grains within the window round the axis, put to sleep those ahead of it and the settled ones
+        behind it (sleep_outside); one step then makes the new contacts, and the stored energy's jump is booked
+        as `window` (the bonds between sleepers are dropped; a woken grain's come back new)."""
+        x = axis0[0] + v * O.time
+        e0 = law.elasticEnergy()
+        woke, slept, lost, v_rear, v_front = sleep_outside(grain_ids, x - reach_x - awake[0] * mm,
+                                                           x + reach_x + awake[1] * mm, detector, RESTLESS * tip_speed)
+        n_awake[0] += woke - slept
+        st["slept_vmax"], st["front_vmax"] = max(st["slept_vmax"], v_rear), max(st["front_vmax"], v_front)
+        st["window_x"] = x
+        O.run(1, True)
+        st["window_energy"] += law.elasticEnergy() - e0 - lost
+        st["awake_steps"] += n_awake[0]
+
     if not resumed:
         O.run(1, True)                      # the bed's contacts exist from here on: the balance starts here
         energy0 = energy_now()
         vmax = 0.0
+        if awake:
+            move_window()
     n_end = min(n_steps, stop_at or n_steps)
     if n_end < n_steps:                     # a benchmark's segment: where its time goes, per engine
         O.timingEnabled = True
@@ -365,7 +404,12 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     iter0, detections0, loop0 = O.iter, detector.numAction, time.time()
     last_save = time.time()
     while O.iter < n_end:
-        O.run(min(GUARD_EVERY, n_end - O.iter), True)
+        if awake and (v * O.time + axis0[0] - st["window_x"]) >= WINDOW_STEP * mm and O.iter < n_end - 1:
+            move_window()
+        chunk = min(GUARD_EVERY, n_end - O.iter)
+        O.run(chunk, True)
+        if awake:
+            st["awake_steps"] += n_awake[0] * chunk
         vmax = max(vmax, guard(grain_ids, meta, z_surface, GUARD_SPEED * tip_speed, 0.5 * bed_mass * tip_speed ** 2))
         if checkpoint_every and time.time() - last_save > checkpoint_every and O.iter < n_steps:
             save_checkpoint(out, {"st": st, "energy0": energy0, "vmax": vmax, "iter": O.iter,
@@ -381,7 +425,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             el = time.time() - wall0
             log(f"run: {100 * done:3.0f} %  travel {v * O.time * 1000:5.0f}/{v * lay.t_end * 1000:.0f} mm  "
                 f"holes {formed}/{len(lay.hole_x)}  wall {el:.0f} s  ETA {el / max(done, 1e-9) * (1 - done):.0f} s"
-                + (f"  ω {st['omega']:.2f} rad/s" if free else "") + (f"  sink {-1000 * st['z']:.1f} mm" if weight else ""))
+                + (f"  ω {st['omega']:.2f} rad/s" if free else "")
+                + (f"  awake {n_awake[0]}/{n_particles}" if awake else "") + (f"  sink {-1000 * st['z']:.1f} mm" if weight else ""))
     if O.iter < n_steps:                    # a benchmark's segment
         import numpy as np
         return {"steps": O.iter - iter0, "wall_s": time.time() - loop0, "detections": detector.numAction - detections0,
@@ -411,7 +456,10 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                                                 lay.phi0, lay.pitch, disk.R, len(lay.hole_x)),
                "axis_sink_mm": ({"final": -1000 * st["z"], "max": -1000 * st["z_min"], "min": -1000 * st["z_max"]}
                                 if weight else None),   # below the prescribed height; < 0: above it
-               "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids), "energy_J": energy}
+               "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids), "energy_J": energy,
+               "awake": ({"behind_mm": awake[0], "ahead_mm": awake[1],
+                          "awake_fraction": st["awake_steps"] / (n_particles * O.iter),
+                          "slept_vmax_m_s": st["slept_vmax"], "front_vmax_m_s": st["front_vmax"]} if awake else None)}
     atomic_write(out / "summary.json", json.dumps(summary, indent=1))
     drop_checkpoint(out)
     return summary
@@ -498,6 +546,48 @@ def save_state(out: Path, grain_ids, z_surface: float, data, header: str, rows):
     atomic_write(out / "timeseries.csv", header + "\n" + "".join(",".join(f"{x:.6g}" for x in r) + "\n" for r in rows))
 
 
+def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: float):
+    """The awake window [x_rear, x_front] (m) along the travel: a sleeping grain inside it wakes; a grain ahead
+    of it, or behind it and slower than `restless` (m/s), sleeps: held still (not dynamic), mask SLEEP_MASK,
+    so the collider pairs it with awake grains, walls and tools but never with another sleeper, and its
+    contacts with sleepers are dropped. What a sleeper meets still pushes on it, and it on them, as a fixed
+    grain would. Returns (woken, put to sleep, their kinetic energy lost (J), the fastest slept behind and
+    ahead (m/s)). If any woke, the collider sorts again: its pairs with sleepers are new."""
+    from yade import O, Vector3
+    woke = slept = 0
+    lost = v_rear = v_front = 0.0
+    for i in grain_ids:
+        b = O.bodies[i]
+        x = b.state.pos[0]
+        if b.mask == SLEEP_MASK:
+            if x_rear <= x <= x_front:
+                b.dynamic, b.mask = True, GRAIN_MASK
+                woke += 1
+            continue
+        if x_rear <= x <= x_front:
+            continue
+        speed = b.state.vel.norm()
+        if x < x_rear and speed >= restless:
+            continue
+        if x < x_rear:
+            v_rear = max(v_rear, speed)
+        else:
+            v_front = max(v_front, speed)
+        w = b.state.angVel
+        lost += 0.5 * b.state.mass * speed ** 2 + 0.5 * sum(b.state.inertia[j] * w[j] ** 2 for j in range(3))
+        b.state.vel, b.state.angVel = Vector3(0, 0, 0), Vector3(0, 0, 0)
+        b.dynamic, b.mask = False, SLEEP_MASK
+        slept += 1
+        for I in O.interactions.withBodyAll(i):
+            other = I.id2 if I.id1 == i else I.id1
+            if O.bodies[other].mask == SLEEP_MASK:
+                O.interactions.erase(I.id1, I.id2)
+    if woke:
+        collider.doSort = True
+        collider()
+    return woke, slept, lost, v_rear, v_front
+
+
 def as_tool(ids: list) -> list:
     """Make bodies parts of a tool: they meet grains only, never each other or the walls (collider's
     avoid_self_mask), and carry no local damping (YADE books it even for bodies that engines move)."""
@@ -539,14 +629,18 @@ def guard(grain_ids, meta: dict, z_surface: float, speed_limit: float, ke_limit:
 
 def energy_balance(start: dict, end: dict) -> dict:
     """The tools' work on the soil beside what it went into, between two `energy_now` readings (J):
-    work = Δkinetic + Δelastic + Δpotential + dissipated + residual. The residual is what no term books: the
-    elastic energy of cohesive bonds at the moment they break (YADE's CohFrictPhys law does not book it)
-    and the time integration's error."""
+    work = Δkinetic + Δelastic + Δpotential + dissipated − window + residual (window: --awake's jumps). The
+    residual is what no term books: the elastic energy of cohesive bonds at the moment they break (YADE's
+    CohFrictPhys law does not book it) and the time integration's error."""
     delta = {k: end[k] - start.get(k, 0.0) for k in end}
     stored = {f"d_{k}": delta.pop(k) for k in ("kinetic", "elastic", "potential")}
-    work = delta.pop("work_tool")                  # what is left in `delta` is the booked dissipation
-    residual = work - sum(stored.values()) - sum(delta.values())
-    return {"work_tool": work, **stored, **{f"dissipated_{k}": v for k, v in delta.items()},
+    work = delta.pop("work_tool")
+    # --awake: the stored energy's jumps at the window's moves (bonds between sleepers dropped, new ones made,
+    # the kinetic energy of the grains put to sleep); no force did work on them
+    window = delta.pop("window", None)
+    residual = work - sum(stored.values()) - sum(delta.values()) + (window or 0.0)   # `delta`: the booked dissipation
+    return {"work_tool": work, **stored, **({"window": window} if window is not None else {}),
+            **{f"dissipated_{k}": v for k, v in delta.items()},
             "residual": residual, "residual_fraction": residual / work if work else float("nan")}
 
 
@@ -569,6 +663,9 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--mode", default="prescribed", help="prescribed | free")
     p.add_argument("--disk-inertia", type=float, default=0.05, help="kg·m², free mode")
     p.add_argument("--weight", type=float, help="N, free mode: the axis sinks under this load (default: held)")
+    p.add_argument("--awake", type=awake_arg, metavar="BEHIND,AHEAD",
+                   help="mm: only the soil from BEHIND behind the tools' reach to AHEAD ahead of it moves; the rest "
+                   "sleeps (default: all of it moves)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--vtk", action="store_true", help="also write VTK files for ParaView")
@@ -584,10 +681,19 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     return p
 
 
+def awake_arg(text: str) -> list:
+    """`--awake BEHIND,AHEAD` (mm)."""
+    try:
+        behind, ahead = (float(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: allowed two lengths BEHIND,AHEAD in mm, e.g. 60,120") from None
+    return [behind, ahead]
+
+
 def plan_args(a: argparse.Namespace) -> dict:
     return plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
                 parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool), a.resolution, a.dt_safety,
-                a.weight, a.lateral)
+                a.weight, a.lateral, a.awake)
 
 
 def plan_from_argv(argv: list[str]) -> dict:
