@@ -20,7 +20,7 @@ _print_lock = threading.Lock()
 # A case's fields, named as in the seed and the configs, and the scripts/disk.py options that set them.
 PLAIN = {"soil": "--soil", "preset": "--preset", "seed": "--seed", "slip": "--slip", "speed_kmh": "--speed",
          "holes": "--holes", "lead_in": "--lead-in", "width": "--width", "depth": "--depth", "mode": "--mode",
-         "resolution": "--resolution", "dt_safety": "--dt-safety"}
+         "resolution": "--resolution", "dt_safety": "--dt-safety", "awake": "--awake"}
 PREFIXED = {"disk": "--tool", "sleeve": "--tool", "soil": "--set"}
 
 
@@ -35,7 +35,7 @@ def scene_args(fields: dict) -> list[str]:
     for key, value in fields.items():
         part, dot, field = key.partition(".")
         if not dot and key in PLAIN:
-            args += [PLAIN[key], str(value)]
+            args += [PLAIN[key], ",".join(map(str, value)) if isinstance(value, (list, tuple)) else str(value)]
         elif dot and part in PREFIXED:
             args += [PREFIXED[part], f"{key if part != 'soil' else field}={value}"]
         else:

@@ -6,7 +6,7 @@ A study file:
     [base]    fields every case shares (soil = "clay", preset = "quick", seed = 1, ...)
     [grid]    field = [values ...]: every combination            } one of the two, or both
     [[case]]  field = value ...: one case each                    } (grid cases, then the listed ones)
-Fields: soil, preset, seed, slip, speed_kmh, holes, lead_in, width, depth, mode, resolution, dt_safety; disk.<field> and
+Fields: soil, preset, seed, slip, speed_kmh, holes, lead_in, width, depth, mode, resolution, dt_safety, awake ([behind, ahead] mm); disk.<field> and
 sleeve.<field> (configs/disk.toml) and soil.<field> (the soil's contact parameters).
 """
 from __future__ import annotations

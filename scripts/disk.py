@@ -250,7 +250,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     travel = sleeve.travel * mm
     st = {"theta": 0.0, "omega": omega, "s": [0.0] * disk.N, "sdot": [0.0] * disk.N, "s_max": [0.0] * disk.N,
           "tip_min": [math.inf] * disk.N, "next_record": 0.0, "rows": [], "work_tool": 0.0, "z": 0.0, "vz": 0.0,
-          "z_min": 0.0, "z_max": 0.0, "window_x": -math.inf, "window_energy": 0.0, "awake_steps": 0.0,
+          "z_min": 0.0, "z_max": 0.0, "window_x": -math.inf, "window_energy": 0.0, "awake_steps": 0.0, "window_s": 0.0, "moves": 0,
           "slept_vmax": 0.0, "front_vmax": 0.0}
     x_dir, y_dir, z_dir = Vector3(1, 0, 0), Vector3(0, 1, 0), Vector3(0, 0, 1)
     window = (lay.phi_out - math.radians(15), lay.phi_in + math.radians(15))
@@ -380,16 +380,18 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         """Wake the grains within the window round the axis, put to sleep those ahead of it and the settled ones
         behind it (sleep_outside); one step then makes the new contacts, and the stored energy's jump is booked
         as `window` (the bonds between sleepers are dropped; a woken grain's come back new)."""
-        x = axis0[0] + v * O.time
+        x, t0 = axis0[0] + v * O.time, time.time()
         e0 = law.elasticEnergy()
         woke, slept, lost, v_rear, v_front = sleep_outside(grain_ids, x - reach_x - awake[0] * mm,
                                                            x + reach_x + awake[1] * mm, detector, RESTLESS * tip_speed)
         n_awake[0] += woke - slept
         st["slept_vmax"], st["front_vmax"] = max(st["slept_vmax"], v_rear), max(st["front_vmax"], v_front)
         st["window_x"] = x
+        st["moves"] += 1
         O.run(1, True)
         st["window_energy"] += law.elasticEnergy() - e0 - lost
         st["awake_steps"] += n_awake[0]
+        st["window_s"] += time.time() - t0
 
     if not resumed:
         O.run(1, True)                      # the bed's contacts exist from here on: the balance starts here
@@ -459,7 +461,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids), "energy_J": energy,
                "awake": ({"behind_mm": awake[0], "ahead_mm": awake[1],
                           "awake_fraction": st["awake_steps"] / (n_particles * O.iter),
-                          "slept_vmax_m_s": st["slept_vmax"], "front_vmax_m_s": st["front_vmax"]} if awake else None)}
+                          "slept_vmax_m_s": st["slept_vmax"], "front_vmax_m_s": st["front_vmax"],
+                          "moves": int(st["moves"]), "move_wall_s": st["window_s"]} if awake else None)}
     atomic_write(out / "summary.json", json.dumps(summary, indent=1))
     drop_checkpoint(out)
     return summary
@@ -552,7 +555,7 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
     so the collider pairs it with awake grains, walls and tools but never with another sleeper, and its
     contacts with sleepers are dropped. What a sleeper meets still pushes on it, and it on them, as a fixed
     grain would. Returns (woken, put to sleep, their kinetic energy lost (J), the fastest slept behind and
-    ahead (m/s)). If any woke, the collider sorts again: its pairs with sleepers are new."""
+    ahead (m/s)). The collider then sorts again: a woken grain's pairs with sleepers are new."""
     from yade import O, Vector3
     woke = slept = 0
     lost = v_rear = v_front = 0.0
@@ -582,7 +585,9 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
             other = I.id2 if I.id1 == i else I.id1
             if O.bodies[other].mask == SLEEP_MASK:
                 O.interactions.erase(I.id1, I.id2)
-    if woke:
+    if slept:       # erase only resets a pair to potential, which becomes real again while the bounds overlap: the
+        O.interactions.eraseNonReal()   # pairs go, and the full sort below makes the potential ones it may again
+    if woke or slept:
         collider.doSort = True
         collider()
     return woke, slept, lost, v_rear, v_front

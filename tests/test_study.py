@@ -85,7 +85,8 @@ def test_a_failing_case_on_a_dask_cluster_is_reported_and_the_other_finishes(tmp
 
 
 @pytest.mark.parametrize("grid, field", [({"slip": [0.0, 1.5]}, "slip"), ({"disk.Q": [1.0]}, "disk.Q"),
-                                         ({"colour": ["red"]}, "colour"), ({"sleeve.stiffness": [-1.0]}, "stiffness")])
+                                         ({"colour": ["red"]}, "colour"), ({"sleeve.stiffness": [-1.0]}, "stiffness"),
+                                         ({"awake": [[60, 2000]]}, "awake")])
 def test_a_bad_study_names_the_field_before_any_scene(tmp_path, grid, field):
     r = study(study_file(tmp_path, "bad", grid), tmp_path)
     assert r.returncode == 2 and field in r.stderr and "allowed" in r.stderr
