@@ -201,7 +201,11 @@ def cmd_bench(args) -> int:
                          "particles": m["particles"], "steps": m["steps"], "dt_s": m["dt"],
                          "travel_mm": round(m["travel_mm"]), "wall_s": round(m["wall_s"]), "threads": m["threads"],
                          "particle_steps_per_s": round(m["particle_steps_per_s"]),
-                         "wall_s_per_hole_200mm": round(m["wall_s"] * 200 / m["travel_mm"]), "machine": machine()})
+                         "wall_s_per_hole_200mm": round(m["wall_s"] * 200 / m["travel_mm"]),
+                         # --awake: the window (mm behind, ahead) and the share of grain-steps awake; else all awake
+                         "awake_mm": (f"{m['awake']['behind_mm']:g},{m['awake']['ahead_mm']:g}" if m.get("awake") else ""),
+                         "awake_fraction": round(m["awake"]["awake_fraction"], 3) if m.get("awake") else 1.0,
+                         "machine": machine()})
         if not rows:
             print("bench: no finished runs in results/runs; make one with ./holes run", file=sys.stderr)
             return 1
