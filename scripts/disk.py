@@ -60,8 +60,8 @@ GUARD_EVERY = 200           # steps between stability checks
 COLLIDER = {"verletDist": 5e-4, "targetInterv": 0}
 GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100   # grains meet grains, walls (mask 1) and tools (bit 2);
 # tools meet grains only: bodies with the same mask sharing a bit with the collider's avoidSelfInteractionMask never meet
-SLEEP_MASK = GRAIN_MASK | 0b1000   # a sleeping grain (--awake): meets awake grains, walls and tools, not other sleepers
-AVOID_SELF = TOOL_SELF | 0b1000    # the collider's avoidSelfInteractionMask: tool parts and sleepers never meet their kind
+SLEEP_MASK = GRAIN_MASK | 0b1000   # a sleeping grain (--awake): meets awake grains, walls, tools; no other sleeper
+AVOID_SELF = TOOL_SELF | 0b1000    # the collider's avoidSelfInteractionMask: tool parts, and sleepers, never meet their kind
 WINDOW_STEP = 5.0           # mm of the axis's travel between moves of the awake window (--awake)
 RESTLESS = 0.02             # × the tip speed: a grain behind the window sleeps only when slower than this
 GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
@@ -107,7 +107,8 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
     if awake is not None:
         if len(awake) != 2:
             raise ConfigError(f"run.awake = {awake!r}: allowed two lengths BEHIND,AHEAD in mm")
-        awake = [RUN_FIELDS["awake"].check(f"run.awake.{side}", float(x)) for side, x in zip(("behind", "ahead"), awake)]
+        awake = [RUN_FIELDS["awake"].check(f"run.awake.{side}", float(x))
+                 for side, x in zip(("behind", "ahead"), awake)]
     if preset.depth <= disk.penetration + 20:
         raise ConfigError(f"preset.depth = {preset.depth:g} is out of range: allowed > penetration + 20 = "
                           f"{disk.penetration + 20:g} mm")
@@ -250,7 +251,10 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     travel = sleeve.travel * mm
     st = {"theta": 0.0, "omega": omega, "s": [0.0] * disk.N, "sdot": [0.0] * disk.N, "s_max": [0.0] * disk.N,
           "tip_min": [math.inf] * disk.N, "next_record": 0.0, "rows": [], "work_tool": 0.0, "z": 0.0, "vz": 0.0,
-          "z_min": 0.0, "z_max": 0.0, "window_x": -math.inf, "window_energy": 0.0, "awake_steps": 0.0, "window_s": 0.0, "moves": 0,
+          "z_min": 0.0, "z_max": 0.0,
+          # --awake: the window's last position (m), its moves, their energy jumps (J) and wall time (s), the
+          # grain-steps awake, and the fastest grain put to sleep behind and ahead of it (m/s)
+          "window_x": -math.inf, "moves": 0, "window_energy": 0.0, "window_s": 0.0, "awake_steps": 0.0,
           "slept_vmax": 0.0, "front_vmax": 0.0}
     x_dir, y_dir, z_dir = Vector3(1, 0, 0), Vector3(0, 1, 0), Vector3(0, 0, 1)
     window = (lay.phi_out - math.radians(15), lay.phi_in + math.radians(15))
@@ -428,7 +432,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             log(f"run: {100 * done:3.0f} %  travel {v * O.time * 1000:5.0f}/{v * lay.t_end * 1000:.0f} mm  "
                 f"holes {formed}/{len(lay.hole_x)}  wall {el:.0f} s  ETA {el / max(done, 1e-9) * (1 - done):.0f} s"
                 + (f"  ω {st['omega']:.2f} rad/s" if free else "")
-                + (f"  awake {n_awake[0]}/{n_particles}" if awake else "") + (f"  sink {-1000 * st['z']:.1f} mm" if weight else ""))
+                + (f"  awake {n_awake[0]}/{n_particles}" if awake else "")
+                + (f"  sink {-1000 * st['z']:.1f} mm" if weight else ""))
     if O.iter < n_steps:                    # a benchmark's segment
         import numpy as np
         return {"steps": O.iter - iter0, "wall_s": time.time() - loop0, "detections": detector.numAction - detections0,
