@@ -61,7 +61,7 @@ COLLIDER = {"verletDist": 5e-4, "targetInterv": 0}
 GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100   # grains meet grains, walls (mask 1) and tools (bit 2);
 # tools meet grains only: bodies with the same mask sharing a bit with the collider's avoidSelfInteractionMask never meet
 SLEEP_MASK = GRAIN_MASK | 0b1000   # a sleeping grain (--awake): meets awake grains, walls, tools; no other sleeper
-AVOID_SELF = TOOL_SELF | 0b1000    # the collider's avoidSelfInteractionMask: tool parts, and sleepers, never meet their kind
+AVOID_SELF = TOOL_SELF | 0b1000    # the collider's avoidSelfInteractionMask: tool parts, and sleepers, meet no kin
 WINDOW_STEP = 5.0           # mm of the axis's travel between moves of the awake window (--awake)
 RESTLESS = 0.02             # × the tip speed: a grain behind the window sleeps only when slower than this
 GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
