@@ -378,7 +378,9 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     # the tools touch the soil within sqrt(R² - H²) of the axis (a punch's tip at the surface), widened by the
     # punch's radius
     reach_x = (math.sqrt(max(disk.R ** 2 - lay.H0 ** 2, 0.0)) + disk.d) * mm
-    n_awake = [sum(1 for i in grain_ids if O.bodies[i].mask != SLEEP_MASK)]
+    # the grains awake now (counted from the masks: a resumed run's sleepers were saved with it); a one-item list,
+    # which move_window updates
+    n_awake = [sum(1 for i in grain_ids if O.bodies[i].mask != SLEEP_MASK) if awake else n_particles]
 
     def move_window():
         """Wake the grains within the window round the axis, put to sleep those ahead of it and the settled ones
@@ -574,10 +576,10 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
             continue
         if x_rear <= x <= x_front:
             continue
-        speed = b.state.vel.norm()
-        if x < x_rear and speed >= restless:
+        speed, behind = b.state.vel.norm(), x < x_rear
+        if behind and speed >= restless:
             continue
-        if x < x_rear:
+        if behind:
             v_rear = max(v_rear, speed)
         else:
             v_front = max(v_front, speed)
