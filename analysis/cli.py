@@ -198,7 +198,7 @@ def cmd_bench(args) -> int:
             if "travel_mm" not in m:                # a duck-beak run
                 continue
             rows.append({"run": m["id"], "soil": m["soil"], "preset": m["preset"], "mode": m["mode"],
-                         "particles": m["particles"], "steps": m["steps"], "dt_s": m["dt"],
+                         "bed": m["bed"], "particles": m["particles"], "steps": m["steps"], "dt_s": m["dt"],
                          "travel_mm": round(m["travel_mm"]), "wall_s": round(m["wall_s"]), "threads": m["threads"],
                          "particle_steps_per_s": round(m["particle_steps_per_s"]),
                          "wall_s_per_hole_200mm": round(m["wall_s"] * 200 / m["travel_mm"]),

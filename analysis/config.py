@@ -251,12 +251,12 @@ class Preset:
     lateral: str
 
 
-def named_section(what: str, name: str, path, schema: dict) -> dict:
+def named_section(what: str, name: str, path, schema: dict, optional: dict | None = None) -> dict:
     """The checked table `name` of a file of named sections (presets, resolutions)."""
     data = read_toml(path)
     if name not in data:
         raise ConfigError(f"{what} = {name!r}: allowed {', '.join(data)}")
-    return check_table(f"{path}: {name}", data[name], schema)
+    return check_table(f"{path}: {name}", data[name], schema, optional)
 
 
 def load_preset(name: str, path="configs/presets.toml") -> Preset:
@@ -450,17 +450,39 @@ def parse_overrides(items) -> dict:
 
 
 RESOLUTION_FIELDS = {
-    "radius": Field(0.0005, 0.05, lo_open=False, unit="m", meaning="mean particle radius"),
+    "radius": Field(0.0005, 0.05, lo_open=False, unit="m", meaning="mean particle radius (a graded bed's fine grains)"),
     "spread": Field(0.0, 0.8, unit="", meaning="relative half-width of the uniform radius distribution"),
+    "coarse_radius": Field(0.0, 0.05, unit="m", meaning="graded bed: mean radius of the grains outside the fine "
+                           "zone (same spread); 0 or absent: one size everywhere"),
+    "fine_width": Field(0.0, 1.0, unit="m", meaning="graded bed: width of the fine zone across the strip, centred on "
+                        "the punches' path"),
+    "fine_depth": Field(0.0, 0.5, unit="m", meaning="graded bed: depth of the fine zone below the surface"),
 }
+GRADED = {"coarse_radius": 0.0, "fine_width": 0.0, "fine_depth": 0.0}   # absent: a bed of one size
 
 
 @dataclass(frozen=True)
 class Resolution:
+    """Particle sizes (m). A graded bed (coarse_radius > 0) has grains of `radius` in the fine zone, a band
+    `fine_width` wide along the strip's middle and `fine_depth` deep under its surface, where the punches and
+    plates work, and grains of `coarse_radius` round and under it (issue 3 item 5, issue 7's economies)."""
     name: str
     radius: float
     spread: float
+    coarse_radius: float = 0.0
+    fine_width: float = 0.0
+    fine_depth: float = 0.0
+
+    @property
+    def graded(self) -> bool:
+        return self.coarse_radius > 0
 
 
 def load_resolution(name: str, path="configs/resolutions.toml") -> Resolution:
-    return Resolution(name, **named_section("resolution", name, path, RESOLUTION_FIELDS))
+    res = Resolution(name, **named_section("resolution", name, path, RESOLUTION_FIELDS, GRADED))
+    smallest_coarse = res.coarse_radius * (1 - res.spread)
+    if res.graded and not (smallest_coarse > res.radius * (1 + res.spread) and res.fine_width > 0 and res.fine_depth > 0):
+        raise ConfigError(f"{path}: {name}: a graded bed needs coarse_radius (1 - spread) > radius (1 + spread) = "
+                          f"{res.radius * (1 + res.spread):g} m, so no coarse grain is as small as a fine one, and "
+                          f"fine_width, fine_depth > 0 (got {res.coarse_radius:g}, {res.fine_width:g}, {res.fine_depth:g})")
+    return res

@@ -36,6 +36,16 @@ def hole_tool(cfg: dict) -> tuple[float, float]:
     return cfg["disk"]["D"], cfg["sleeve"]["outer_diameter"]
 
 
+def graded_band(cfg: dict):
+    """(y_lo, y_hi), mm: a graded bed's fine zone (scripts/bed.py), where the undisturbed level is read; None
+    for a bed of one size."""
+    graded = cfg.get("graded")
+    if not graded:
+        return None
+    width, fine = cfg["bed_size_mm"][1], 1000 * graded["fine_width"]
+    return (width - fine) / 2, (width + fine) / 2
+
+
 def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
     """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2,
     the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...);
@@ -46,13 +56,17 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     seedling = load_seedling(seedling_path)
     pos, rad, pos0 = state["pos"] * 1000, state["radius"] * 1000, state["initial_pos"] * 1000
     measured_x = summary["hole_x_mm"][summary.get("lead_in", 0):]        # lead-in holes are not measured
-    holes, z_surface, surf = measure_state(pos, rad, pos0, rad, cfg["bed_size_mm"][1], measured_x,
-                                           *hole_tool(cfg), seedling.l2_diameter, cell=cell)
+    width = cfg["bed_size_mm"][1]
+    band, graded = graded_band(cfg), cfg.get("graded")
+    fine = rad <= 1000 * graded["radius"] * (1 + graded["spread"]) * (1 + 1e-9) if graded else np.ones(len(rad), bool)
+    probe = float(rad[fine].mean())
+    holes, z_surface, surf = measure_state(pos, rad, pos0, rad, width, measured_x, *hole_tool(cfg),
+                                           seedling.l2_diameter, cell=cell, probe=probe, band=band)
     x = np.array([h.x if h.found else np.nan for h in holes])      # C: NaN to or from a hole not found
     rows = [{"run": summary["id"], "soil": cfg["soil"]["name"], "seed": cfg["seed"], "hole": k + 1,
              "found": h.found, "x": h.x,
              "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2,
-             "bottom": h.bottom, "grain_radius": float(rad.mean()), "probe": float(rad.mean()), "cell": cell,
+             "bottom": h.bottom, "grain_radius": probe, "probe": probe, "cell": cell,
              **{f"l_{H}": v for H, v in zip(DEPTHS, h.l_depth)}}
             for k, h in enumerate(holes)]
     return pd.DataFrame(rows, columns=COLUMNS), holes, z_surface, surf, loaded

@@ -228,17 +228,20 @@ def length_at_depth(below, seed, z: float, step: float, probe: float) -> float:
 
 
 def measure_state(pos_mm, radius_mm, initial_pos_mm, initial_radius_mm, width: float, hole_x, D: float,
-                  sleeve_outer: float, diameter_min: float, cell: float = 1.0, probe: float | None = None):
+                  sleeve_outer: float, diameter_min: float, cell: float = 1.0, probe: float | None = None,
+                  band: tuple | None = None):
     """Every hole of a strip (positions in mm, strip 0 <= y <= width, holes expected at `hole_x` on its
     centreline): a list of HoleMeasure and the undisturbed surface level (the median probed surface of the
-    bed before the disk, walls' cells left out). The probe defaults to the mean grain radius; spacing C is
-    the difference of consecutive centres (measure_hole: each at the hole's effective depth)."""
+    bed before the disk, walls' cells left out, and only within `band` = (y_lo, y_hi) if given: a graded bed's
+    fine zone). The probe defaults to the mean grain radius; spacing C is the difference of consecutive
+    centres (measure_hole: each at the hole's effective depth)."""
     probe = float(np.mean(radius_mm)) if probe is None else probe
     x_lo, x_hi = float(np.min(initial_pos_mm[:, 0])), float(np.max(initial_pos_mm[:, 0]))
     xs = np.arange(x_lo, x_hi + cell / 2, cell)
     ys = np.arange(0.0, width + cell / 2, cell)
     margin = 2 * probe
-    inner = np.ix_((xs > x_lo + margin) & (xs < x_hi - margin), (ys > margin) & (ys < width - margin))
+    y_lo, y_hi = band or (0.0, width)
+    inner = np.ix_((xs > x_lo + margin) & (xs < x_hi - margin), (ys > y_lo + margin) & (ys < y_hi - margin))
     z_surface = float(np.nanmedian(probed_surface(initial_pos_mm, initial_radius_mm, xs, ys, probe)[inner]))
     S = probed_surface(pos_mm, radius_mm, xs, ys, probe)
     return [measure_hole(S, xs, ys, z_surface, xc, width / 2, D, sleeve_outer, probe, diameter_min)

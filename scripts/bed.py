@@ -9,6 +9,13 @@ interior; then the grain density is set to ρ_d(1 + w)/(1 - n) so that the bed w
 soil of Table 2 weighs at its dry bulk density ρ_d and moisture w. Cohesion is switched on by the scenes
 that use the bed, so calibrating cohesion never re-settles a bed.
 
+Graded beds (a resolution with `coarse_radius`, issue 3 item 5): grains of the resolution's radius in the fine
+zone, a band `fine_width` wide along the strip's middle and `fine_depth` deep, where the punches and plates work,
+and grains of `coarse_radius` under and beside it. The cloud is made zone by zone (`zones`), each at the same
+solid fraction, so each zone settles where it belongs; levelling removes a coarse grain whose centre is above
+D - (coarse radius - radius), so its top stays under the fine grains' highest; the porosity that sets the grain
+density is the fine zone's, where the holes are formed (the coarse zone's is reported beside it).
+
 Sides: rigid walls (`lateral = "walls"`), or none (`"periodic"`): a YADE periodic cell in x and y, so the bed
 stands for an unbounded field and a cone or punch meets no wall; the saved positions are wrapped into the cell.
 
@@ -41,12 +48,44 @@ def bed_key(soil, res, size, seed: int, lateral: str = "walls") -> str:
     """The bed's cache name; a periodic bed's carries "-per" (walled beds keep the keys they always had)."""
     params = {"soil": soil.name, **soil.settling_key(), "young": soil.young, "radius": res.radius,
               "spread": res.spread, "size_m": [round(s, 6) for s in size], "seed": seed, "version": 1}
+    if res.graded:                     # beds of one size keep the keys they always had
+        params["graded"] = [res.coarse_radius, res.fine_width, res.fine_depth]
     if lateral == "periodic":
         params["lateral"] = lateral
         params["version"] = 2          # the periodic cloud (version 1 left a loose column along the cell's sides)
     digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
     L, W, D = (round(1000 * s) for s in size)
     return f"{soil.name}-{res.name}-{L}x{W}x{D}{'-per' if lateral == 'periodic' else ''}-s{seed}-{digest}"
+
+
+def mean_volume(r: float, spread: float) -> float:
+    """E[4/3 π r³] of radii uniform in r(1 ± spread)."""
+    return 4 / 3 * math.pi * r ** 3 * (1 + spread ** 2)
+
+
+def zones(res, L: float, W: float, D: float) -> list:
+    """The bed's zones as (lower corner, upper corner, mean radius), m, in the settled bed's frame: a graded bed's
+    fine zone, then the coarse boxes under and beside it (Resolution). The top ones reach 1.12 D: the levelling's
+    margin."""
+    y0, y1, zf, top = (W - res.fine_width) / 2, (W + res.fine_width) / 2, D - res.fine_depth, 1.12 * D
+    return [((0, y0, zf), (L, y1, top), res.radius), ((0, 0, 0), (L, W, zf), res.coarse_radius),
+            ((0, 0, zf), (L, y0, top), res.coarse_radius), ((0, y1, zf), (L, W, top), res.coarse_radius)]
+
+
+def check_graded(res, size, lateral: str):
+    """A graded bed's fine zone fits inside the bed, with room for a coarse grain beside and under it; walled only."""
+    if not res.graded:
+        return
+    L, W, D = size
+    if lateral != "walls":
+        raise ConfigError(f"resolution = {res.name!r} is graded: allowed with lateral = 'walls' only (its coarse "
+                          "sides would be periodic images of each other)")
+    room = 2 * res.coarse_radius * (1 + res.spread)
+    if res.fine_width > W - 2 * room or res.fine_depth > D - room:
+        raise ConfigError(f"resolution {res.name!r}: fine_width = {1000 * res.fine_width:g} mm and fine_depth = "
+                          f"{1000 * res.fine_depth:g} mm are out of range for a {1000 * W:g} x {1000 * D:g} mm section: "
+                          f"allowed up to {1000 * (W - 2 * room):g} and {1000 * (D - room):g} mm (a coarse grain beside "
+                          "and under the fine zone)")
 
 
 def check_size(size) -> tuple:
@@ -81,6 +120,7 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
     soil, res = soil_with(load_soil(soil_name), overrides or {}), load_resolution(resolution)
     size = check_size([s / 1000.0 for s in size_mm])
     key = bed_key(soil, res, size, SEED.check("bed.seed", seed), check_lateral(lateral))
+    check_graded(res, size, lateral)
     out = Path(bed_dir) / f"{key}.npz"
     if out.exists() and out.with_suffix(".json").exists():
         return out
@@ -96,28 +136,40 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
     O.reset()
     L, W, D = size
     r = res.radius
-    mean_volume = 4 / 3 * math.pi * r ** 3 * (1 + res.spread ** 2)        # E[r³] of a uniform spread
-    n_target = int(1.12 * L * W * D * 0.45 / mean_volume)                  # 0.45 solid + levelling margin
+    n_target = int(1.12 * L * W * D * 0.45 / mean_volume(r, res.spread))   # 0.45 solid + levelling margin
     cloud_h = 1.12 * D * 0.45 / CLOUD_FRACTION + 2 * r
     settle_mat = O.materials.append(part.soil_material(soil, density=2650.0, young=soil.young / 4, cohesive=False))
     steel = O.materials.append(part.steel_material(soil))
     periodic = lateral == "periodic"
     sp = pack.SpherePack()
-    # A periodic cloud fills the cell up to its sides (a walled one keeps its centres a radius from them, which
-    # in a periodic cell left a loose column along the sides after settling); its z-period is the cloud's height,
-    # so it starts a largest radius above the floor. The scene's cell is set after toSimulation, which sets its own.
-    z0 = r * (1 + res.spread) if periodic else 0.0
-    sp.makeCloud((0, 0, z0), (L, W, cloud_h), rMean=r, rRelFuzz=res.spread, num=n_target, seed=seed, periodic=periodic)
+    if res.graded:                  # zone by zone, each at the cloud's solid fraction: it settles where it belongs
+        stretch = cloud_h / (1.12 * D)
+        for k, (lo, hi, rz) in enumerate(zones(res, L, W, D)):
+            n_zone = int((hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]) * 0.45 / mean_volume(rz, res.spread))
+            sp.makeCloud((lo[0], lo[1], lo[2] * stretch), (hi[0], hi[1], hi[2] * stretch), rMean=rz,
+                         rRelFuzz=res.spread, num=n_zone, seed=seed + 1000 * k)
+        n_target = None
+    else:
+        # A periodic cloud fills the cell up to its sides (a walled one keeps its centres a radius from them, which
+        # in a periodic cell left a loose column along the sides after settling); its z-period is the cloud's
+        # height, so it starts a largest radius above the floor. The scene's cell is set after toSimulation,
+        # which sets its own.
+        z0 = r * (1 + res.spread) if periodic else 0.0
+        sp.makeCloud((0, 0, z0), (L, W, cloud_h), rMean=r, rRelFuzz=res.spread, num=n_target, seed=seed,
+                     periodic=periodic)
     sp.toSimulation(material=settle_mat)
     if periodic:
         part.periodic_cell(O, L, W, cloud_h)
     O.bodies.append(part.container(L, W, cloud_h, steel, lateral=lateral))
-    log(f"bed {key}: {len(sp)} particles in the cloud (asked {n_target})")
+    log(f"bed {key}: {len(sp)} particles in the cloud (asked {n_target or 'zone by zone'})")
     O.engines = part.engines(damping=0.4, cohesion_on_new_contacts=False)
     O.dt = 0.5 * utils.PWaveTimeStep()
     settle(O, utils, SETTLE_MAX_TIME, "deposition", log)
 
-    removed = [b.id for b in O.bodies if isinstance(b.shape, Sphere) and b.state.pos[2] > D]
+    coarse_drop = res.coarse_radius - r if res.graded else 0.0             # a coarse top stays under a fine one
+    fine_max = r * (1 + res.spread) * (1 + 1e-9)
+    removed = [b.id for b in O.bodies if isinstance(b.shape, Sphere)
+               and b.state.pos[2] > D - (coarse_drop if b.shape.radius > fine_max else 0.0)]
     for i in removed:
         O.bodies.erase(i)
     O.materials[settle_mat].young = soil.young                            # working stiffness from here on
@@ -132,7 +184,14 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
     rad = np.array([b.shape.radius for b in spheres])
     if not np.all(np.isfinite(pos)) or (pos[:, 2] < -r).any():
         raise RuntimeError("bed: particles left the box or became NaN while settling")
-    n = interior_porosity(pos, rad, L, W, D, r)
+    if res.graded:                  # the fine zone's porosity sets the density; the coarse one's is reported
+        lo, hi, _ = zones(res, L, W, D)[0]
+        n = porosity_in(pos, rad, np.add(lo, 2 * r), (hi[0] - 2 * r, hi[1] - 2 * r, D - 2 * r), k=16)
+        m = res.coarse_radius
+        n_coarse = porosity_in(pos, rad, (m, m, m), (L - m, W - m, D - 2 * m),
+                               outside=(np.subtract(lo, m), (hi[0] + m, hi[1] + m, np.inf)), k=16)
+    else:
+        n = interior_porosity(pos, rad, L, W, D, r)
     grain_density = soil.wet_density / (1.0 - n)
     meta = {"key": key, "soil": soil.name, "resolution": res.name, "radius": r, "spread": res.spread,
             "size_m": list(size), "seed": seed, "lateral": lateral, "particles": int(len(rad)), "removed_levelling": len(removed),
@@ -142,6 +201,12 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
             "whole_bed_dry_bulk_density": grain_density * float(np.sum(4 / 3 * np.pi * rad ** 3)) / (L * W * D) / (1 + soil.moisture), "surface_z": float(np.max(pos[:, 2] + rad)),
             "settle_unbalanced": SETTLE_UNBALANCED, "steps": int(O.iter), "sim_time_s": O.time,
             "wall_s": time.time() - wall0, "threads": threads, "particle_steps": int(O.iter) * int(len(rad))}
+    if res.graded:
+        fine = rad <= fine_max
+        meta["graded"] = {"coarse_radius": res.coarse_radius, "fine_width": res.fine_width,
+                          "fine_depth": res.fine_depth, "fine_particles": int(fine.sum()),
+                          "coarse_particles": int((~fine).sum()), "coarse_porosity": n_coarse,
+                          "coarse_dry_bulk_density": grain_density * (1 - n_coarse) / (1 + soil.moisture)}
     tmp = out.with_name(f".{out.stem}.tmp.npz")
     out.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(tmp, pos=pos, radius=rad)
@@ -154,16 +219,34 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
 
 def interior_porosity(pos, rad, L, W, D, r, n_points: int = 200000, seed: int = 0) -> float:
     """Porosity by Monte Carlo points in the interior (2 mean radii from walls, bottom and surface)."""
+    m = 2 * r
+    return porosity_in(pos, rad, (m, m, m), (L - m, W - m, D - 2 * m), n_points=n_points, seed=seed)
+
+
+def porosity_in(pos, rad, lo, hi, outside=None, k: int = 8, n_points: int = 200000, seed: int = 0) -> float:
+    """Porosity by Monte Carlo points in the box [lo, hi], leaving out those in the box `outside` (lo, hi); a
+    point is solid if one of its `k` nearest grain centres holds it (mixed sizes want more than one size's 8)."""
     import numpy as np
     from scipy.spatial import cKDTree
-    m = 2 * r
     rng = np.random.default_rng(seed)
-    pts = rng.uniform([m, m, m], [L - m, W - m, D - 2 * m], size=(n_points, 3))
+    pts = rng.uniform(lo, hi, size=(n_points, 3))
+    if outside is not None:
+        pts = pts[~np.all((pts >= outside[0]) & (pts <= outside[1]), axis=1)]
     tree = cKDTree(pos)
-    inside = np.zeros(n_points, bool)
-    for k, idx in enumerate(tree.query(pts, k=8)[1].T):
+    inside = np.zeros(len(pts), bool)
+    for idx in tree.query(pts, k=k)[1].T:
         inside |= np.linalg.norm(pts - pos[idx], axis=1) < rad[idx]
     return float(1.0 - inside.mean())
+
+
+def fine_band(meta: dict):
+    """(y_lo, y_hi), m: a graded bed's fine zone across the strip (where its surface level is read); None for a
+    bed of one size."""
+    graded = meta.get("graded")
+    if not graded:
+        return None
+    W = meta["size_m"][1]
+    return (W - graded["fine_width"]) / 2, (W + graded["fine_width"]) / 2
 
 
 def load_meta(path: Path) -> dict:

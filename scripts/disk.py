@@ -43,10 +43,11 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (ROOT, SEED, ConfigError, Field, as_dict, load_disk, load_preset, load_sleeve,  # noqa: E402
-                             load_soil, parse_overrides, preset_with, soil_with, tool_with)
+from analysis.config import (ROOT, SEED, ConfigError, Field, as_dict, load_disk, load_preset, load_resolution,  # noqa: E402
+                             load_sleeve, load_soil, parse_overrides, preset_with, soil_with, tool_with)
 from analysis.io import atomic_write  # noqa: E402
 from analysis.kinematics import TIP_SPHERE_RATIO, layout, slip_between_holes  # noqa: E402
+from scripts.bed import check_graded  # noqa: E402
 
 SEGMENTS = 16               # facets round a punch or a sleeve
 SLEEVE_CLEARANCE = 1.0      # mm between the punch and the plate's bore
@@ -112,6 +113,10 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
     if preset.depth <= disk.penetration + 20:
         raise ConfigError(f"preset.depth = {preset.depth:g} is out of range: allowed > penetration + 20 = "
                           f"{disk.penetration + 20:g} mm")
+    res = load_resolution(preset.resolution)
+    if res.graded and res.fine_width * 1000 <= sleeve.outer_diameter:
+        raise ConfigError(f"resolution {res.name!r}: fine_width = {1000 * res.fine_width:g} mm is out of range: allowed "
+                          f"> sleeve outer diameter {sleeve.outer_diameter:g} mm (the plate works in the fine zone)")
     if preset.width <= sleeve.outer_diameter:
         raise ConfigError(f"preset.width = {preset.width:g} is out of range: allowed > sleeve outer diameter "
                           f"{sleeve.outer_diameter:g} mm")
@@ -123,6 +128,10 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
               "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}
     if weight is not None:                  # only then: the ids of runs without a weight stay as they were
         params["weight"] = weight
+    if res.graded:                          # likewise; measure.py reads the fine zone from here
+        params["graded"] = {k: getattr(res, k) for k in ("radius", "spread", "coarse_radius", "fine_width",
+                                                             "fine_depth")}
+        check_graded(res, [x / 1000 for x in params["bed_size_mm"]], preset.lateral)
     if awake is not None:                   # likewise
         params["awake_mm"] = awake
     # the layout is in the id, rounded (the last bits of its trigonometry may differ between machines), so a
@@ -519,6 +528,7 @@ def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: floa
     from yade import O, utils
     from scripts import soil as part
     from analysis.metrology import surface_level
+    from scripts.bed import fine_band
     O.reset()
     data = np.load(bed_path)
     L, W, _ = meta["size_m"]
@@ -527,7 +537,9 @@ def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: floa
     grain_ids = O.bodies.append([utils.sphere(tuple(p), r, material=mat, mask=GRAIN_MASK)
                                  for p, r in zip(data["pos"], data["radius"])])
     bed_mass = sum(O.bodies[i].state.mass for i in grain_ids)
-    z_surface = surface_level(data["pos"], data["radius"], 4 * meta["radius"])
+    band = fine_band(meta)                  # a graded bed's level is its fine zone's, where the holes are
+    on = np.ones(len(data["radius"]), bool) if band is None else (data["pos"][:, 1] >= band[0]) & (data["pos"][:, 1] <= band[1])
+    z_surface = surface_level(data["pos"][on], data["radius"][on], 4 * meta["radius"])
     if meta.get("lateral", "walls") == "periodic":
         x_min, x_max, top = tool_box
         x_lo, x_hi = float(np.min(data["pos"][:, 0] - data["radius"])), float(np.max(data["pos"][:, 0] + data["radius"]))

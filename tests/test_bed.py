@@ -66,6 +66,46 @@ def test_bed_is_cached_by_its_key(tiny_bed):
     assert again["key"] == meta["key"] and again["wall_s"] == meta["wall_s"]     # loaded, not settled again
 
 
+@pytest.fixture(scope="module")
+def graded_bed(tmp_path_factory):
+    beds = tmp_path_factory.mktemp("beds")
+    meta = scene("bed.py", "--soil", "clay", "--size", "240,140,100", "--bed-dir", str(beds), "--resolution",
+                 "tiny_graded", "--threads", "2")
+    return beds, meta
+
+
+def test_graded_bed_keeps_its_fine_grains_where_the_punches_work(graded_bed):
+    """A graded bed (configs/resolutions.toml: tiny_graded) loses no grain, settles full and level, puts its
+    fine grains in the fine zone and its coarse ones round and under it (a few fine ones may sift into the
+    coarse pores below), and has the target bulk density in the fine zone, measured independently of the
+    porosity the bed builder used."""
+    beds, meta = graded_bed
+    g = meta["graded"]
+    data = np.load(beds / f"{meta['key']}.npz")
+    pos, rad = data["pos"], data["radius"]
+    L, W, D = meta["size_m"]
+    assert len(rad) == meta["particles"] == g["fine_particles"] + g["coarse_particles"]
+    assert np.all(np.isfinite(pos)) and np.all((pos[:, :2] > 0) & (pos[:, :2] < (L, W))) and pos[:, 2].min() > 0
+    fine = rad <= meta["radius"] * (1 + meta["spread"]) * (1 + 1e-9)
+    r, rc = meta["radius"], g["coarse_radius"]
+    in_band = np.abs(pos[:, 1] - W / 2) < g["fine_width"] / 2 + r
+    in_zone = in_band & (pos[:, 2] > D - g["fine_depth"] - r)
+    assert fine.sum() > 0 and (~fine).sum() > 0
+    assert np.mean(in_zone[fine]) > 0.95                      # fine grains in the fine zone
+    core = (np.abs(pos[:, 1] - W / 2) < g["fine_width"] / 2 - rc) & (pos[:, 2] > D - g["fine_depth"] + rc)
+    assert not np.any(core & ~fine)                           # no coarse grain inside it
+    tops = pos[:, 2] + rad
+    assert tops[~fine].max() <= tops[fine].max() + 0.25 * r   # levelled: no coarse grain stands above the fine
+    assert meta["surface_z"] > D - 2 * r
+    m = 2 * r
+    box = ((pos[:, 0] > m) & (pos[:, 0] < L - m) & (np.abs(pos[:, 1] - W / 2) < g["fine_width"] / 2 - m)
+           & (pos[:, 2] > D - g["fine_depth"] + m) & (pos[:, 2] < D - m))
+    volume = (L - 2 * m) * (g["fine_width"] - 2 * m) * (g["fine_depth"] - 2 * m)
+    dry = meta["grain_density"] * np.sum(4 / 3 * np.pi * rad[box] ** 3) / volume / (1 + load_soil("clay").moisture)
+    assert dry == pytest.approx(load_soil("clay").bulk_density, rel=0.1)
+    assert 0.3 < g["coarse_porosity"] < 0.65
+
+
 def side_solid_fraction(pos, rad, L, W, D, periodic: bool, n_points=100000, seed=0):
     """Solid fraction (Monte Carlo points) within half a mean radius of the sides x = 0, L and y = 0, W, and
     inside, both between 2 radii over the floor and 2 under the top. A periodic bed's grains are matched

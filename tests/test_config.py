@@ -100,3 +100,24 @@ def test_the_parameter_page_is_current():
         assert f"| `{key}` |" in page, key
     assert "| `normal_cohesion` | [0, 1e+08] | Pa | 48000 | 48920 | 37830 |" in page
     assert params_doc.PATH.read_text() == page, "configs/README.md is out of date: run `./holes params`"
+
+
+def test_bad_graded_resolution_is_refused(tmp_path):
+    """A graded bed (configs/resolutions.toml) whose coarse grains overlap the fine sizes, whose fine zone does
+    not fit the strip or leaves the plate outside it, or whose sides are periodic, is refused before YADE starts."""
+    from analysis.config import load_resolution
+    from scripts.disk import plan
+    p = tmp_path / "r.toml"
+    p.write_text("[g]\nradius = 0.004\nspread = 0.25\ncoarse_radius = 0.006\nfine_width = 0.1\nfine_depth = 0.09\n")
+    with pytest.raises(ConfigError, match=r"g: a graded bed needs coarse_radius \(1 - spread\) > radius \(1 \+ spread\)"):
+        load_resolution("g", p)
+    assert load_resolution("graded").graded and not load_resolution("default").graded
+    with pytest.raises(ConfigError, match=r"fine_width = 100 mm and fine_depth = 90 mm are out of range for a "
+                                          r"120 x 120 mm section: allowed up to 80 and 100 mm"):
+        plan("clay", "default", resolution="graded", width=120)
+    with pytest.raises(ConfigError, match=r"allowed with lateral = 'walls' only"):
+        plan("clay", "default", resolution="graded", lateral="periodic")
+    with pytest.raises(ConfigError, match=r"fine_width = 100 mm is out of range: allowed > sleeve outer diameter 110 mm"):
+        plan("clay", "default", resolution="graded", tool={"sleeve.outer_diameter": 110.0})
+    assert plan("clay", "default", resolution="graded")["graded"]["coarse_radius"] == 0.008
+    assert "graded" not in plan("clay", "quick")
