@@ -179,7 +179,7 @@ def cmd_bench(args) -> int:
     checkpoint)."""
     import json
     import pandas as pd
-    from analysis.io import atomic_csv, machine, read_table, stamp
+    from analysis.io import atomic_csv, machine, stamp
     if args.what == "peer":
         return run_scene("peer.py", [])
     if args.what == "collider":
@@ -210,11 +210,8 @@ def cmd_bench(args) -> int:
             print("bench: no finished runs in results/runs; make one with ./holes run", file=sys.stderr)
             return 1
         out, here = ROOT / "results/bench/runs.csv", pd.DataFrame(rows)
-        table = here
-        if out.exists():                    # runs made on earlier machines stay; a run measured again is replaced
-            earlier = read_table(out)
-            table = pd.concat([earlier[~earlier.run.isin(here.run)], here]).sort_values("run")
-        atomic_csv(table, out, stamp("./holes bench runs") + "; rows of runs not on this machine kept from before")
+        atomic_csv(with_earlier(here, out, "run"), out, stamp("./holes bench runs") + "; rows of runs not on this "
+                   "machine kept from before")
         print(here.to_string(index=False))
         return 0
     rows = []
@@ -228,10 +225,22 @@ def cmd_bench(args) -> int:
     if not rows:
         print("bench: no beds in results/beds; build one with ./holes bed", file=sys.stderr)
         return 1
-    out = ROOT / "results/bench/beds.csv"
-    atomic_csv(pd.DataFrame(rows), out, stamp("./holes bench beds"))
-    print(pd.DataFrame(rows).to_string(index=False))
+    out, here = ROOT / "results/bench/beds.csv", pd.DataFrame(rows)
+    atomic_csv(with_earlier(here, out, "bed"), out, stamp("./holes bench beds") + "; rows of beds not on this machine "
+               "kept from before")
+    print(here.to_string(index=False))
     return 0
+
+
+def with_earlier(here, out: Path, key: str):
+    """This machine's rows (`here`) with the rows of `out`'s table made elsewhere: a row measured again is
+    replaced, rows sorted by `key`."""
+    import pandas as pd
+    from analysis.io import read_table
+    if not out.exists():
+        return here
+    earlier = read_table(out)
+    return pd.concat([earlier[~earlier[key].isin(here[key])], here]).sort_values(key)
 
 
 def workers(args) -> int:

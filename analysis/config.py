@@ -477,6 +477,14 @@ class Resolution:
     def graded(self) -> bool:
         return self.coarse_radius > 0
 
+    def is_fine(self, radius):
+        """Whether grains of `radius` (m; a number or an array) are of the fine sizes, r (1 ± spread)."""
+        return radius <= self.radius * (1 + self.spread) * (1 + 1e-9)
+
+    def fine_band(self, width: float) -> tuple[float, float]:
+        """(y_lo, y_hi), m: the fine zone across a strip `width` m wide, centred on the punches' path."""
+        return (width - self.fine_width) / 2, (width + self.fine_width) / 2
+
 
 def load_resolution(name: str, path="configs/resolutions.toml") -> Resolution:
     res = Resolution(name, **named_section("resolution", name, path, RESOLUTION_FIELDS, GRADED))

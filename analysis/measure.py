@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.config import load_seedling
+from analysis.config import Resolution, load_seedling
 from analysis.io import atomic_csv, stamp
 from analysis.metrology import DEPTHS, measure_state
 
@@ -36,16 +36,6 @@ def hole_tool(cfg: dict) -> tuple[float, float]:
     return cfg["disk"]["D"], cfg["sleeve"]["outer_diameter"]
 
 
-def graded_band(cfg: dict):
-    """(y_lo, y_hi), mm: a graded bed's fine zone (scripts/bed.py), where the undisturbed level is read; None
-    for a bed of one size."""
-    graded = cfg.get("graded")
-    if not graded:
-        return None
-    width, fine = cfg["bed_size_mm"][1], 1000 * graded["fine_width"]
-    return (width - fine) / 2, (width + fine) / 2
-
-
 def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
     """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2,
     the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...);
@@ -57,9 +47,9 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     pos, rad, pos0 = state["pos"] * 1000, state["radius"] * 1000, state["initial_pos"] * 1000
     measured_x = summary["hole_x_mm"][summary.get("lead_in", 0):]        # lead-in holes are not measured
     width = cfg["bed_size_mm"][1]
-    band, graded = graded_band(cfg), cfg.get("graded")
-    fine = rad <= 1000 * graded["radius"] * (1 + graded["spread"]) * (1 + 1e-9) if graded else np.ones(len(rad), bool)
-    probe = float(rad[fine].mean())
+    graded = Resolution("graded", **cfg["graded"]) if cfg.get("graded") else None     # scripts/disk.py's plan
+    band = tuple(1000 * y for y in graded.fine_band(width / 1000)) if graded else None
+    probe = float(rad[graded.is_fine(rad / 1000)].mean() if graded else rad.mean())
     holes, z_surface, surf = measure_state(pos, rad, pos0, rad, width, measured_x, *hole_tool(cfg),
                                            seedling.l2_diameter, cell=cell, probe=probe, band=band)
     x = np.array([h.x if h.found else np.nan for h in holes])      # C: NaN to or from a hole not found

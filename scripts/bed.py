@@ -32,8 +32,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (LATERAL, ROOT, SEED, ConfigError, Field, check_lateral, load_resolution, load_soil,  # noqa: E402
-                             parse_overrides, soil_with)
+from analysis.config import (LATERAL, ROOT, SEED, ConfigError, Field, Resolution, check_lateral,  # noqa: E402
+                             load_resolution, load_soil, parse_overrides, soil_with)
 from analysis.io import atomic_write  # noqa: E402
 
 BED_DIR = ROOT / "results/beds"
@@ -167,9 +167,8 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
     settle(O, utils, SETTLE_MAX_TIME, "deposition", log)
 
     coarse_drop = res.coarse_radius - r if res.graded else 0.0             # a coarse top stays under a fine one
-    fine_max = r * (1 + res.spread) * (1 + 1e-9)
     removed = [b.id for b in O.bodies if isinstance(b.shape, Sphere)
-               and b.state.pos[2] > D - (coarse_drop if b.shape.radius > fine_max else 0.0)]
+               and b.state.pos[2] > D - (0.0 if res.is_fine(b.shape.radius) else coarse_drop)]
     for i in removed:
         O.bodies.erase(i)
     O.materials[settle_mat].young = soil.young                            # working stiffness from here on
@@ -202,7 +201,7 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
             "settle_unbalanced": SETTLE_UNBALANCED, "steps": int(O.iter), "sim_time_s": O.time,
             "wall_s": time.time() - wall0, "threads": threads, "particle_steps": int(O.iter) * int(len(rad))}
     if res.graded:
-        fine = rad <= fine_max
+        fine = res.is_fine(rad)
         meta["graded"] = {"coarse_radius": res.coarse_radius, "fine_width": res.fine_width,
                           "fine_depth": res.fine_depth, "fine_particles": int(fine.sum()),
                           "coarse_particles": int((~fine).sum()), "coarse_porosity": n_coarse,
@@ -239,14 +238,11 @@ def porosity_in(pos, rad, lo, hi, outside=None, k: int = 8, n_points: int = 2000
     return float(1.0 - inside.mean())
 
 
-def fine_band(meta: dict):
-    """(y_lo, y_hi), m: a graded bed's fine zone across the strip (where its surface level is read); None for a
-    bed of one size."""
-    graded = meta.get("graded")
-    if not graded:
-        return None
-    W = meta["size_m"][1]
-    return (W - graded["fine_width"]) / 2, (W + graded["fine_width"]) / 2
+def bed_resolution(meta: dict) -> Resolution:
+    """The grain sizes a bed was built with, from its metadata (not from today's configs/resolutions.toml)."""
+    graded = meta.get("graded") or {}
+    return Resolution(meta["resolution"], meta["radius"], meta["spread"],
+                      **{k: graded.get(k, 0.0) for k in ("coarse_radius", "fine_width", "fine_depth")})
 
 
 def load_meta(path: Path) -> dict:

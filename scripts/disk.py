@@ -528,7 +528,7 @@ def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: floa
     from yade import O, utils
     from scripts import soil as part
     from analysis.metrology import surface_level
-    from scripts.bed import fine_band
+    from scripts.bed import bed_resolution
     O.reset()
     data = np.load(bed_path)
     L, W, _ = meta["size_m"]
@@ -537,8 +537,10 @@ def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: floa
     grain_ids = O.bodies.append([utils.sphere(tuple(p), r, material=mat, mask=GRAIN_MASK)
                                  for p, r in zip(data["pos"], data["radius"])])
     bed_mass = sum(O.bodies[i].state.mass for i in grain_ids)
-    band = fine_band(meta)                  # a graded bed's level is its fine zone's, where the holes are
-    on = np.ones(len(data["radius"]), bool) if band is None else (data["pos"][:, 1] >= band[0]) & (data["pos"][:, 1] <= band[1])
+    res, on = bed_resolution(meta), slice(None)
+    if res.graded:                          # a graded bed's level is its fine zone's, where the holes are
+        y_lo, y_hi = res.fine_band(W)
+        on = (data["pos"][:, 1] >= y_lo) & (data["pos"][:, 1] <= y_hi)
     z_surface = surface_level(data["pos"][on], data["radius"][on], 4 * meta["radius"])
     if meta.get("lateral", "walls") == "periodic":
         x_min, x_max, top = tool_box

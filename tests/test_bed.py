@@ -69,7 +69,7 @@ def test_bed_is_cached_by_its_key(tiny_bed):
 @pytest.fixture(scope="module")
 def graded_bed(tmp_path_factory):
     beds = tmp_path_factory.mktemp("beds")
-    meta = scene("bed.py", "--soil", "clay", "--size", "240,140,100", "--bed-dir", str(beds), "--resolution",
+    meta = scene("bed.py", "--soil", "clay", "--size", "160,140,100", "--bed-dir", str(beds), "--resolution",
                  "tiny_graded", "--threads", "2")
     return beds, meta
 

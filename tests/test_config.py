@@ -112,7 +112,7 @@ def test_bad_graded_resolution_is_refused(tmp_path):
     with pytest.raises(ConfigError, match=r"g: a graded bed needs coarse_radius \(1 - spread\) > radius \(1 \+ spread\)"):
         load_resolution("g", p)
     assert load_resolution("graded").graded and not load_resolution("default").graded
-    with pytest.raises(ConfigError, match=r"fine_width = 100 mm and fine_depth = 90 mm are out of range for a "
+    with pytest.raises(ConfigError, match=r"fine_width = 100 mm and fine_depth = 80 mm are out of range for a "
                                           r"120 x 120 mm section: allowed up to 80 and 100 mm"):
         plan("clay", "default", resolution="graded", width=120)
     with pytest.raises(ConfigError, match=r"allowed with lateral = 'walls' only"):

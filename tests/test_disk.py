@@ -43,6 +43,9 @@ SIDE_SCENES = {                                 # name: (arguments, whether the 
     # the coarse test strip (lead-in + 2 holes) with the far field asleep, and the same strip all awake
     "asleep": (["--soil", "clay", "--threads", "1", "--resolution", "coarse", "--awake", "60,120"], True),
     "awake": (["--soil", "clay", "--threads", "1", "--resolution", "coarse"], True),
+    # a graded bed (r = 6 mm round the tools, 10 mm elsewhere) on a strip wide enough for its 90 mm fine zone
+    "graded": (["--soil", "clay", "--holes", "1", "--lead-in", "0", "--threads", "1", "--resolution", "tiny_graded",
+                "--width", "140"], True),
 }
 
 
@@ -141,6 +144,29 @@ def test_periodic_strip_forms_a_measured_hole_without_side_walls(side_scenes, sc
     assert np.all((pos[:, 1] >= 0) & (pos[:, 1] < W)) and np.all((pos[:, 0] > -0.01) & (pos[:, 0] < L + 0.01))
     hole = measure.run(run).iloc[0]
     assert hole.found and all(np.isfinite(hole[m]) for m in ("L0", "L1", "L2", "h1")), hole.to_dict()
+
+
+def test_a_graded_bed_forms_a_hole_measured_at_its_fine_grains(side_scenes, scene_dirs):
+    """A graded strip (configs/resolutions.toml: tiny_graded): the tip reaches the configured depth, no grain is
+    lost, the balance closes, and the hole is found and measured with a probe of the fine grains' radius, from
+    the fine zone's undisturbed level (the scene's and the metrology's agree within a fine radius)."""
+    from analysis import measure
+    summary = json.loads(side_scenes["graded"].result().stdout.strip().splitlines()[-1])
+    run = scene_dirs[0] / summary["id"]
+    cfg = json.loads((run / "config.json").read_text())
+    g = cfg["graded"]
+    assert summary["tip_min_depth_mm"] == pytest.approx([cfg["disk"]["penetration"]], abs=0.5)
+    state = np.load(run / "state.npz")
+    rad = state["radius"]
+    assert len(rad) == summary["particles"] and np.all(np.isfinite(state["pos"]))
+    assert abs(summary["energy_J"]["residual_fraction"]) < 0.03
+    fine = rad <= g["radius"] * (1 + g["spread"]) * (1 + 1e-9)
+    assert 0 < (~fine).sum() < fine.sum()
+    table, holes, z_surface, _, _ = measure.measure_run(run)
+    hole = table.iloc[0]
+    assert hole.found and all(np.isfinite(hole[m]) for m in ("L0", "L1", "L2", "h1")), hole.to_dict()
+    assert hole.probe == pytest.approx(1000 * rad[fine].mean())
+    assert z_surface == pytest.approx(1000 * summary["z_surface_m"], abs=1000 * g["radius"])
 
 
 def test_a_sleeping_far_field_keeps_the_work_of_forming_the_holes(side_scenes, scene_dirs):
