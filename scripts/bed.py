@@ -67,7 +67,7 @@ def zones(res, L: float, W: float, D: float) -> list:
     """The bed's zones as (lower corner, upper corner, mean radius), m, in the settled bed's frame: a graded bed's
     fine zone, then the coarse boxes under and beside it (Resolution). The top ones reach 1.12 D: the levelling's
     margin."""
-    y0, y1, zf, top = (W - res.fine_width) / 2, (W + res.fine_width) / 2, D - res.fine_depth, 1.12 * D
+    (y0, y1), zf, top = res.fine_band(W), D - res.fine_depth, 1.12 * D
     return [((0, y0, zf), (L, y1, top), res.radius), ((0, 0, 0), (L, W, zf), res.coarse_radius),
             ((0, 0, zf), (L, y0, top), res.coarse_radius), ((0, y1, zf), (L, W, top), res.coarse_radius)]
 
