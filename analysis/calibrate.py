@@ -92,20 +92,20 @@ def stored_cone(bed: str, cone_scale: float, speed: float, cohesion: float) -> t
 
 
 def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesion: float, seed: int = 1,
-               speed: float = 0.5, threads: int = 2, lateral: str = "periodic", tag: str = "") -> dict:
+               speed: float = 0.5, threads: int = 2, lateral: str = "periodic", tag: str = "", tiles: int = 1) -> dict:
     """One cone scene in its own YADE process; its progress lines are echoed (prefixed with `tag`) as it runs.
     Returns its summary; a run of the same bed, cone, speed and bond strength already in results/cone/
     (`stored_cone`) is reused."""
     from analysis.config import load_resolution
     from scripts.bed import bed_key, check_size
     bed = bed_key(load_soil(soil), load_resolution(resolution), check_size([float(v) / 1000 for v in size.split(",")]),
-                  seed, lateral)
+                  seed, lateral, tiles)
     if found := stored_cone(bed, cone_scale, speed, cohesion):
         say(f"{tag}{' ' if tag else ''}reused {found[0].name}")
         return {**found[1], "reused": True}
     cmd = [sys.executable, str(ROOT / "scripts/cone.py"), "--soil", soil, "--resolution", resolution, "--size", size,
            "--cone-scale", str(cone_scale), "--cohesion", str(cohesion), "--seed", str(seed), "--speed", str(speed),
-           "--threads", str(threads), "--lateral", lateral]
+           "--threads", str(threads), "--lateral", lateral, "--tiles", str(tiles)]
     tail = []
 
     def on_line(line):

@@ -4,6 +4,10 @@ replicate beds (other packing seeds), on a bed 1.5 × as wide, and against the c
 Also the dry density of a 100 cm³ cutting-ring core in each bed (calibration_report.core_density), a density
 check independent of the interior porosity the grain density is set from.
 
+A case may tile its bed (`tiles` = n, periodic beds: scripts/bed.py's `tile`): the bed of `size` repeated n × n
+times, so beds of one seed and different n hold one packing in cells of different widths. The "tiled" check
+compares them seed by seed: the width check with the packing's scatter taken out.
+
 A case may pin its bond strength (`cohesion`, Pa, normal = shear), as a study at one cohesion does; by default
 it is the soil config's calibrated value.
 
@@ -27,12 +31,12 @@ from analysis.calibrate import cone_index, cone_run, same_cohesion, stored_cone
 from analysis.calibration_report import CAL, core_density
 from analysis.config import ROOT, SEED, ConfigError, Field, check_lateral, check_table, load_resolution, load_soil, read_toml
 from analysis.io import atomic_csv, stamp
-from scripts.bed import bed_key, check_size
+from scripts.bed import TILES, bed_key, check_size, check_tiles
 from scripts.cone import CONE_FIELDS
 
-CHECKS = ("replicate", "width", "ratio")
+CHECKS = ("replicate", "width", "ratio", "tiled")
 CASE_FIELDS = {"check": Field(kind=str), "soil": Field(kind=str), "resolution": Field(kind=str),
-               "seed": SEED, "lateral": Field(kind=str), **CONE_FIELDS}
+               "seed": SEED, "lateral": Field(kind=str), "tiles": TILES, **CONE_FIELDS}
 COHESION = Field(0.0, 1e7, unit="Pa", meaning="bond strength, normal = shear")
 
 
@@ -47,8 +51,8 @@ def load_cases(path) -> list[dict]:
         where = f"{path}: case {i + 1}"
         merged = {**data.get("base", {}), **fields}
         size, cohesion = merged.pop("size", None), merged.pop("cohesion", None)
-        c = check_table(where, merged, CASE_FIELDS, optional={"lateral": "walls"})
-        check_lateral(c["lateral"])
+        c = check_table(where, merged, CASE_FIELDS, optional={"lateral": "walls", "tiles": 1})
+        check_tiles(c["tiles"], check_lateral(c["lateral"]), f"{where}.tiles")
         if c["check"] not in CHECKS:
             raise ConfigError(f"{where}.check = {c['check']!r}: allowed {', '.join(CHECKS)}")
         if not isinstance(size, list) or len(size) != 3 or not all(isinstance(v, (int, float)) for v in size):
@@ -57,7 +61,8 @@ def load_cases(path) -> list[dict]:
         c["cohesion"] = (c["soil_cfg"].normal_cohesion if cohesion is None
                          else COHESION.check(f"{where}.cohesion", cohesion))
         c["size"], c["size_m"] = size, check_size([v / 1000 for v in size])
-        c["bed"] = bed_key(c["soil_cfg"], c["res"], c["size_m"], c["seed"], c["lateral"])
+        c["bed"] = bed_key(c["soil_cfg"], c["res"], c["size_m"], c["seed"], c["lateral"], c["tiles"])
+        c["source"] = bed_key(c["soil_cfg"], c["res"], c["size_m"], c["seed"], c["lateral"])   # the bed it tiles
         cases.append(c)
     if not cases:
         raise ConfigError(f"{path}: no [[case]] tables")
@@ -81,9 +86,11 @@ def row(case: dict, s: dict) -> dict:
         core = core_density(case["bed"], meta["grain_density"], soil.moisture)
     else:        # a committed cone run whose bed (not committed) was settled on another machine
         say(f"cone-checks: bed {case['bed']} not in results/beds/; its densities are left out")
+    n = case["tiles"]
+    cell = [n * case["size"][0], n * case["size"][1], case["size"][2]]
     return {"check": case["check"], "soil": soil.name, "resolution": case["resolution"],
-            "radius_mm": 1000 * case["res"].radius, "size_mm": "x".join(f"{v:g}" for v in case["size"]),
-            "lateral": case["lateral"],
+            "radius_mm": 1000 * case["res"].radius, "size_mm": "x".join(f"{v:g}" for v in cell),
+            "lateral": case["lateral"], "tiles": n,
             "seed": case["seed"], "cone_diameter_mm": round(1000 * s["cone_diameter_m"], 2),
             "cone_to_particle": round(s["cone_to_particle"], 2), "cohesion_kpa": round(s["cohesion_pa"] / 1000, 2),
             "cone_index_kpa": round(s["cone_index_pa"] / 1000, 1), "target_kpa": soil.cone_index / 1000,
@@ -95,9 +102,10 @@ def row(case: dict, s: dict) -> dict:
             "bed_settle_s": round(settle_s, 0), "threads": s["threads"], "bed": case["bed"]}
 
 
-def width_beds(table: pd.DataFrame) -> pd.DataFrame:
-    """The replicate and width rows, with each bed's width in mm (size_mm is length x width x depth)."""
-    beds = table[table.check.isin(["replicate", "width"])]
+def width_beds(table: pd.DataFrame, checks=("replicate", "width")) -> pd.DataFrame:
+    """The rows of `checks` (by default the replicate and width beds), with each bed's width in mm (size_mm is
+    length x width x depth)."""
+    beds = table[table.check.isin(checks)]
     return beds.assign(width=[float(s.split("x")[1]) for s in beds.size_mm])
 
 
@@ -120,10 +128,45 @@ def summarise(table: pd.DataFrame) -> list[str]:
                 change = 100 * (b.cone_index_kpa / a.cone_index_kpa - 1)
                 lines.append(f"{key[0]} ({b.resolution}, seed {key[1]}): {b.lateral} bed {b.size_mm} mm gives "
                              f"{b.cone_index_kpa:.0f} kPa, {change:+.1f} % against {a.size_mm} mm (criterion < 5 %)")
+    lines += tiled_verdict(table)
     ratio = table[table.check == "ratio"]
     if len(ratio):
         lines.append("ratio: " + ", ".join(f"{r.cone_to_particle:.2f} -> {r.cone_index_kpa:.0f} kPa" for r in
                                            ratio.sort_values("cone_to_particle").itertuples()))
+    return lines
+
+
+def tiled_changes(table: pd.DataFrame) -> pd.DataFrame:
+    """The tiled check seed by seed: per soil and cone, each cell width's cone index against the next narrower
+    cell's of the same packing, in % (one row per seed and width step)."""
+    t, out = width_beds(table, ["tiled"]), []
+    for (soil, cone, seed), g in t.groupby(["soil", "cone_diameter_mm", "seed"], sort=False):
+        g = g.sort_values("width")
+        for (_, a), (_, b) in zip(g.iloc[:-1].iterrows(), g.iloc[1:].iterrows()):
+            out.append({"soil": soil, "cone_diameter_mm": cone, "seed": seed, "narrow": a.width, "wide": b.width,
+                        "change_percent": 100 * (b.cone_index_kpa / a.cone_index_kpa - 1)})
+    return pd.DataFrame(out)
+
+
+def tiled_verdict(table: pd.DataFrame) -> list[str]:
+    """The paired width steps in words: mean change over seeds ± its standard error, the 95 % interval
+    (Student's t) and whether that interval lies within the < 5 % criterion."""
+    from scipy import stats
+    changes, lines = tiled_changes(table), []
+    if not len(changes):
+        return lines
+    for (soil, narrow, wide), g in changes.groupby(["soil", "narrow", "wide"], sort=False):
+        c, n = g.change_percent, len(g)
+        if n < 2:
+            lines.append(f"{soil} tiled, {narrow:g} -> {wide:g} mm: {c.iloc[0]:+.1f} % (one seed)")
+            continue
+        se = c.std(ddof=1) / n ** 0.5
+        half = stats.t.ppf(0.975, n - 1) * se
+        lo, hi = c.mean() - half, c.mean() + half
+        verdict = ("is met" if -5 < lo and hi < 5 else "fails" if lo >= 5 or hi <= -5 else "is not resolved")
+        lines.append(f"{soil} tiled, {narrow:g} -> {wide:g} mm, same packing, {n} seeds: {c.mean():+.1f} ± {se:.1f} % "
+                     f"(mean ± SE; seed SD {c.std(ddof=1):.1f} %), 95 % interval {lo:+.1f} to {hi:+.1f} %: "
+                     f"the < 5 % criterion {verdict}")
     return lines
 
 
@@ -187,6 +230,13 @@ def plot(table: pd.DataFrame, path):
         mean = g.groupby("width").cone_index_kpa.mean()
         d.plot(mean.index, mean.values, "-", color=line.get_color(),
                label=f"{soil}, r = {g.radius_mm.iloc[0]:g} mm, {lateral}: seeds (points), mean (line)")
+    tiled = width_beds(table, ["tiled"])
+    for i, (seed, g) in enumerate(tiled.groupby("seed")):          # the tiled check: one packing per line
+        g = g.sort_values("width")
+        d.plot(g.width, g.cone_index_kpa, "-", color="0.6", lw=0.8, label="tiled: one packing per line" if i == 0 else None)
+    if len(tiled):
+        mean = tiled.groupby("width").cone_index_kpa.mean()
+        d.plot(mean.index, mean.values, "k-o", lw=2, label="tiled: mean over packings")
     d.set_xlabel("bed width = length, mm (cone 38.5 mm)")
     d.set_ylabel("cone index over 0-150 mm, kPa")
     legend(d)
@@ -209,8 +259,8 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
     rows = {i: row(cases[i], s) for i, s in done.items()}
     groups: dict[str, list[int]] = {}
     for i, c in enumerate(cases):
-        if i not in done and not no_run:
-            groups.setdefault(c["bed"], []).append(i)
+        if i not in done and not no_run:      # one worker per settled bed: a tiled bed's copies come after it
+            groups.setdefault(c["source"], []).append(i)
     say(f"cone-checks: {len(cases)} cases, {len(done)} stored, " + (f"{len(cases) - len(done)} left out (--no-run)"
         if no_run else f"{len(cases) - len(done)} to run ({workers} at a time, {threads} thread(s) each)"))
 
@@ -224,10 +274,11 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
         for i in ids:
             c = cases[i]
             size = ",".join(f"{v:g}" for v in c["size"])
-            tag = f"[{c['check']} {c['soil']} {c['resolution']} {size} s{c['seed']} c{c['cone_scale']:g}]"
+            tiled = f" x{c['tiles']}" if c["tiles"] > 1 else ""
+            tag = f"[{c['check']} {c['soil']} {c['resolution']} {size}{tiled} s{c['seed']} c{c['cone_scale']:g}]"
             try:
                 s = cone_index(c["soil"], c["resolution"], size, c["cone_scale"], c["cohesion"],
-                               c["seed"], c["speed"], threads, c["lateral"], tag=tag)
+                               c["seed"], c["speed"], threads, c["lateral"], tag=tag, tiles=c["tiles"])
             except RuntimeError as e:               # a failing scene is reported; the others go on
                 failures.append(f"{tag} {e}")
                 say(failures[-1])

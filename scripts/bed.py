@@ -19,6 +19,10 @@ density is the fine zone's, where the holes are formed (the coarse zone's is rep
 Sides: rigid walls (`lateral = "walls"`), or none (`"periodic"`): a YADE periodic cell in x and y, so the bed
 stands for an unbounded field and a cone or punch meets no wall; the saved positions are wrapped into the cell.
 
+Tiled beds (`tiles` = n > 1, periodic only): the settled periodic bed repeated n × n times in a cell n times as
+long and wide (`tile`). Every grain keeps its contacts, so the tiled bed is settled as it stands, and beds of
+different n share one packing: the paired width check of the cone index (issue 3), where only the cell differs.
+
 Beds are keyed by soil (its settling parameters), resolution, size, sides and seed: results/beds/<key>.npz + .json.
 """
 from __future__ import annotations
@@ -44,8 +48,9 @@ CLOUD_FRACTION = 0.30        # solid fraction of the initial random cloud
 SIZE_FIELDS = {"length": Field(0.02, 3.0, unit="m"), "width": Field(0.02, 1.0, unit="m"), "depth": Field(0.02, 0.5, unit="m")}
 
 
-def bed_key(soil, res, size, seed: int, lateral: str = "walls") -> str:
-    """The bed's cache name; a periodic bed's carries "-per" (walled beds keep the keys they always had)."""
+def bed_key(soil, res, size, seed: int, lateral: str = "walls", tiles: int = 1) -> str:
+    """The bed's cache name; a periodic bed's carries "-per" (walled beds keep the keys they always had), a tiled
+    one's "-t<n>" and the tiled cell's size."""
     params = {"soil": soil.name, **soil.settling_key(), "young": soil.young, "radius": res.radius,
               "spread": res.spread, "size_m": [round(s, 6) for s in size], "seed": seed, "version": 1}
     if res.graded:                     # beds of one size keep the keys they always had
@@ -53,9 +58,12 @@ def bed_key(soil, res, size, seed: int, lateral: str = "walls") -> str:
     if lateral == "periodic":
         params["lateral"] = lateral
         params["version"] = 2          # the periodic cloud (version 1 left a loose column along the cell's sides)
+    if tiles > 1:
+        params["tiles"] = tiles
     digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
-    L, W, D = (round(1000 * s) for s in size)
-    return f"{soil.name}-{res.name}-{L}x{W}x{D}{'-per' if lateral == 'periodic' else ''}-s{seed}-{digest}"
+    L, W, D = round(1000 * size[0] * tiles), round(1000 * size[1] * tiles), round(1000 * size[2])
+    sides = ("-per" if lateral == "periodic" else "") + (f"-t{tiles}" if tiles > 1 else "")
+    return f"{soil.name}-{res.name}-{L}x{W}x{D}{sides}-s{seed}-{digest}"
 
 
 def mean_volume(r: float, spread: float) -> float:
@@ -88,6 +96,39 @@ def check_graded(res, size, lateral: str):
                           "and under the fine zone)")
 
 
+TILES = Field(1, 4, kind=int, meaning="copies of the periodic bed along its length and its width")
+
+
+def check_tiles(tiles: int, lateral: str, where: str = "bed.tiles") -> int:
+    """A tiled bed repeats a periodic cell; a walled bed's copies would have walls inside the bed."""
+    TILES.check(where, tiles)
+    if tiles > 1 and lateral != "periodic":
+        raise ConfigError(f"{where} = {tiles}: only a periodic bed (lateral = \"periodic\") can be tiled; allowed 1 "
+                          f"for lateral = {lateral!r}")
+    return tiles
+
+
+def tile(source: Path, tiles: int, out: Path) -> Path:
+    """The periodic bed `source` repeated tiles × tiles times in a cell tiles × as long and wide, saved as `out`.
+    The copies are shifted by half a cell for even `tiles`, so the cell's centre, where a cone goes, lies at
+    the same point of the packing for every `tiles` (the source cell's centre)."""
+    import numpy as np
+    meta = load_meta(source)
+    data = np.load(source)
+    L, W, D = meta["size_m"]
+    shift = (tiles - 1) / 2 * np.array([L, W])
+    pos = np.concatenate([data["pos"] + [i * L, j * W, 0] for i in range(tiles) for j in range(tiles)])
+    pos[:, :2] = (pos[:, :2] + shift) % (tiles * L, tiles * W)
+    rad = np.tile(data["radius"], tiles * tiles)
+    meta.update(key=out.stem, size_m=[tiles * L, tiles * W, D], particles=int(len(rad)), tiles=tiles,
+                tiled_from=meta["key"])      # the settling's cost fields stay the source bed's
+    tmp = out.with_name(f".{out.stem}.tmp.npz")
+    np.savez_compressed(tmp, pos=pos, radius=rad)
+    tmp.replace(out)
+    atomic_write(out.with_suffix(".json"), json.dumps(meta, indent=1))
+    return out
+
+
 def check_size(size) -> tuple:
     if len(size) != 3:
         raise ConfigError(f"size = {size!r}: give length,width,depth in mm")
@@ -115,15 +156,20 @@ def settle(O, utils, max_time: float, label: str, log):
 
 
 def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int = 2, quiet: bool = False,
-          bed_dir: Path = BED_DIR, overrides: dict | None = None, lateral: str = "walls") -> Path:
-    """Build (or find) the bed; returns the .npz path. All checks run before YADE starts."""
+          bed_dir: Path = BED_DIR, overrides: dict | None = None, lateral: str = "walls", tiles: int = 1) -> Path:
+    """Build (or find) the bed; returns the .npz path. All checks run before YADE starts. With `tiles` > 1 the
+    bed of `size_mm` is built (or found) and tiled (`tile`)."""
     soil, res = soil_with(load_soil(soil_name), overrides or {}), load_resolution(resolution)
     size = check_size([s / 1000.0 for s in size_mm])
-    key = bed_key(soil, res, size, SEED.check("bed.seed", seed), check_lateral(lateral))
+    key = bed_key(soil, res, size, SEED.check("bed.seed", seed), check_lateral(lateral),
+                  check_tiles(tiles, lateral))
     check_graded(res, size, lateral)
     out = Path(bed_dir) / f"{key}.npz"
     if out.exists() and out.with_suffix(".json").exists():
         return out
+    if tiles > 1:
+        return tile(build(soil_name, resolution, size_mm, seed, threads, quiet, bed_dir, overrides, lateral),
+                    tiles, out)
     log = (lambda *a: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
 
     from scripts.yadeboot import boot
@@ -257,6 +303,7 @@ def bed_arguments(description: str, default_size: str) -> argparse.ArgumentParse
     p.add_argument("--size", default=default_size, help="bed length,width,depth in mm")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--lateral", default="walls", help="the bed's sides: " + " | ".join(LATERAL))
+    p.add_argument("--tiles", type=int, default=1, help="a periodic bed repeated tiles x tiles times (--size: one copy)")
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--bed-dir", default=str(BED_DIR), help="where beds are kept")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
@@ -265,7 +312,7 @@ def bed_arguments(description: str, default_size: str) -> argparse.ArgumentParse
 
 def bed_from_args(a) -> Path:
     return build(a.soil, a.resolution, [float(s) for s in a.size.split(",")], a.seed, a.threads, bed_dir=Path(a.bed_dir),
-                 overrides=parse_overrides(a.set), lateral=a.lateral)
+                 overrides=parse_overrides(a.set), lateral=a.lateral, tiles=a.tiles)
 
 
 def main(argv=None) -> int:

@@ -147,6 +147,45 @@ def test_periodic_bed_has_no_side_walls(tiny_bed, periodic_bed):
     assert per_side == pytest.approx(per_inner, rel=0.05)
 
 
+def contacts(pos, rad, cell):
+    """Overlapping pairs of a laterally periodic bed (nearest images across x and y): their overlaps, sorted."""
+    from scipy.spatial import cKDTree
+    tree = cKDTree(np.c_[pos[:, :2], pos[:, 2] - pos[:, 2].min()], boxsize=[cell[0], cell[1], 1e3])
+    ij = tree.query_pairs(2 * rad.max(), output_type="ndarray")
+    d = pos[ij[:, 0]] - pos[ij[:, 1]]
+    d[:, :2] -= np.asarray(cell) * np.round(d[:, :2] / np.asarray(cell))
+    overlap = rad[ij[:, 0]] + rad[ij[:, 1]] - np.linalg.norm(d, axis=1)
+    return np.sort(overlap[overlap > 0])
+
+
+@pytest.mark.parametrize("tiles", [2, 3])
+def test_tiled_bed_is_its_packing_repeated_round_the_same_centre(periodic_bed, tiles):
+    """A tiled bed holds every contact of its periodic source n² times with the same overlap (so it is settled
+    as it stands), fills its n-times-wider cell, and has the source's centre at its own centre (where the cone
+    goes), so the tiled width check changes the cell and nothing else."""
+    beds, meta = periodic_bed
+    tiled = scene("bed.py", "--soil", "clay", "--size", "120,120,100", "--bed-dir", str(beds), "--lateral", "periodic",
+                  "--tiles", str(tiles), *TINY)
+    src, out = np.load(beds / f"{meta['key']}.npz"), np.load(beds / f"{tiled['key']}.npz")
+    L, W, D = meta["size_m"]
+    assert tiled["size_m"] == pytest.approx([tiles * L, tiles * W, D]) and f"-t{tiles}-" in tiled["key"]
+    assert tiled["particles"] == tiles ** 2 * meta["particles"] == len(out["radius"])
+    assert np.all((out["pos"][:, :2] >= 0) & (out["pos"][:, :2] < (tiles * L, tiles * W)))
+    np.testing.assert_allclose(contacts(out["pos"], out["radius"], (tiles * L, tiles * W)),
+                               np.repeat(contacts(src["pos"], src["radius"], (L, W)), tiles ** 2), atol=1e-12)
+    near = lambda pos, c: np.sort(np.linalg.norm(pos[:, :2] - c, axis=1))[:20]
+    np.testing.assert_allclose(near(out["pos"], (tiles * L / 2, tiles * W / 2)), near(src["pos"], (L / 2, W / 2)),
+                               atol=1e-12)
+
+
+def test_only_a_periodic_bed_can_be_tiled():
+    from scripts import bed
+    with pytest.raises(ConfigError, match=r"bed.tiles = 2: only a periodic bed"):
+        bed.build("clay", "tiny", (100.0, 100.0, 60.0), tiles=2)
+    with pytest.raises(ConfigError, match=r"bed.tiles = 9.*allowed"):
+        bed.build("clay", "tiny", (100.0, 100.0, 60.0), tiles=9, lateral="periodic")
+
+
 @pytest.fixture(scope="module")
 def test_bed(tmp_path_factory):
     """About 2500 particles of r = 3.5 mm: a 25.7 mm cone is 3.7 particle diameters, enough for a depth trend."""

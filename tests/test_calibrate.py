@@ -55,6 +55,7 @@ def test_cone_checks_config_is_checked_before_anything_runs(tmp_path):
                           ('check = "ratio"\ncone_scale = 40.0', r"cone_scale = 40.0 is out of range: allowed \[0.5, 20\]"),
                           ('check = "ratio"\nsoil = "peat"', "peat"),
                           ('check = "width"\nlateral = "open"', r"bed.lateral = 'open': allowed walls, periodic"),
+                          ('check = "tiled"\ntiles = 2', r"case 1.tiles = 2: only a periodic bed"),
                           ('check = "width"\ncohesion = -5.0', r"case 1.cohesion = -5.0 is out of range: allowed \[0, 1e\+07\] Pa")):
         path = tmp_path / "checks.toml"
         path.write_text(base + "[[case]]\n" + case + "\n")
@@ -75,6 +76,29 @@ def test_cone_checks_summary_states_the_width_change_and_the_scatter():
     assert lines[0].startswith("clay (quick, periodic bed 200x200x280 mm): cone index 460 ± 28 kPa over 2 seed(s) (Table 2 450)")
     assert "300x300x280 mm gives 462 kPa, +5.0 % against 200x200x280 mm" in lines[3]      # each bed against
     assert "450x450x280 mm gives 485 kPa, +5.0 % against 300x300x280 mm" in lines[4]      # the next narrower
+
+
+def test_tiled_width_check_is_judged_on_the_seeds_paired_changes():
+    """Each seed's wider cell against its narrower one (the same packing); the criterion is met only when the
+    95 % interval of the mean change lies within ± 5 %, fails when it lies beyond, and is otherwise unresolved."""
+    import pandas as pd
+    from analysis import cone_checks
+
+    def table(changes):
+        rows = []
+        for seed, c in enumerate(changes, 1):
+            rows += [dict(check="tiled", soil="clay", seed=seed, cone_diameter_mm=38.49, size_mm="450x450x280",
+                          cone_index_kpa=400.0 + seed),
+                     dict(check="tiled", soil="clay", seed=seed, cone_diameter_mm=38.49, size_mm="675x675x280",
+                          cone_index_kpa=(400.0 + seed) * (1 + c / 100))]
+        return pd.DataFrame(rows)
+
+    steps = cone_checks.tiled_changes(table([1.0, -1.0, 2.0, 0.0]))
+    assert list(steps.change_percent.round(6)) == [1.0, -1.0, 2.0, 0.0] and set(steps.narrow) == {450.0}
+    met, = cone_checks.tiled_verdict(table([1.0, -1.0, 2.0, 0.0]))
+    assert "4 seeds: +0.5 ± 0.6 %" in met and met.endswith("criterion is met")
+    assert cone_checks.tiled_verdict(table([9.0, 11.0, 10.0]))[0].endswith("criterion fails")
+    assert cone_checks.tiled_verdict(table([1.0, 12.0, -3.0]))[0].endswith("criterion is not resolved")
 
 
 def test_cone_checks_no_run_tables_stored_cases_only(tmp_path, monkeypatch):
