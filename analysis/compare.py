@@ -177,15 +177,18 @@ def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: di
 
 def ordering(table: pd.DataFrame) -> dict:
     """The field's soil ordering clay > loam > sand, checked on the simulated means of L0, L2, pass rate;
-    `resolved`: the simulation shows it beyond its scatter (each soil's 95 % interval above the next one's)."""
+    `tie`: two soils' simulated means are equal at the table's precision (0.1), as zero pass rates are, so the
+    ordering is neither shown nor refuted; `resolved`: the simulation shows it beyond its scatter (each soil's
+    95 % interval above the next one's)."""
     out = {}
     for m in ("L0", "L2", "pass_stated", "pass_field"):
         t = table[table.metric == m].set_index("soil")
         if not {"clay", "loam", "sand"} <= set(t.index):
             continue
-        s = t.sim_mean
+        s = t.sim_mean.round(1)
+        tie = bool(s.clay == s.loam or s.loam == s.sand)
         out[m] = {"field": bool(t.field_mean.clay > t.field_mean.loam > t.field_mean.sand),
-                  "simulated": bool(s.clay > s.loam > s.sand),
+                  "simulated": bool(s.clay > s.loam > s.sand), "tie": tie,
                   "resolved": bool(t.ci_lo.clay > t.ci_hi.loam and t.ci_lo.loam > t.ci_hi.sand)}
     return out
 

@@ -117,8 +117,8 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     order = compare.ordering(table)
     overlap = " (not resolved: the soils' 95 % intervals overlap)"
     order_text = "; ".join(f"{m}: field clay > loam > sand {'yes' if o['field'] else 'no'}, simulated "
-                           f"{'yes' if o['simulated'] else 'no'}{'' if o['resolved'] else overlap}"
-                           for m, o in order.items())
+                           f"{'tie' if o['tie'] else 'yes' if o['simulated'] else 'no'}"
+                           f"{'' if o['resolved'] else overlap}" for m, o in order.items())
     md = compare.markdown(table.drop(columns="preset"), preset, note + "\n\n" + cost)
     if order_text:
         md += f"\nSoil ordering (clay > loam > sand): {order_text}.\n"

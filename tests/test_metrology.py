@@ -170,5 +170,13 @@ def test_soil_ordering_is_resolved_only_when_the_intervals_part():
                              "sim_mean": [124.0, 121.0, 118.0], "ci_lo": [124.0 - ci_half, 121.0 - ci_half, 118.0 - ci_half],
                              "ci_hi": [124.0 + ci_half, 121.0 + ci_half, 118.0 + ci_half]})
     wide, narrow = compare.ordering(table(12.0))["L0"], compare.ordering(table(1.0))["L0"]
-    assert wide["field"] and wide["simulated"] and not wide["resolved"]
+    assert wide["field"] and wide["simulated"] and not wide["resolved"] and not wide["tie"]
     assert narrow["simulated"] and narrow["resolved"]
+
+
+def test_soil_ordering_of_equal_rates_is_a_tie():
+    """Zero pass rates that differ below the table's precision (0.1) neither show nor refute the ordering."""
+    t = pd.DataFrame({"soil": ["clay", "loam", "sand"], "metric": "pass_stated", "field_mean": [94.4, 93.3, 90.4],
+                      "sim_mean": [0.13, 0.08, 0.0], "ci_lo": [0.0] * 3, "ci_hi": [9.1, 6.5, 0.0]})
+    o = compare.ordering(t)["pass_stated"]
+    assert o["tie"] and not o["simulated"] and not o["resolved"]
