@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.metrology import height_map
+from analysis.metrology import probed_surface
 
 
 def draw_disk(ax, cfg, summary):
@@ -62,13 +62,14 @@ def run(folder) -> list[Path]:
     a1.set_ylabel("z - surface, mm")
     a1.set_title(f"{summary['id']}: centre slab (|y - W/2| < 1.5 r); dotted: theoretical hole centres (grey: lead-in)")
     a1.legend(loc="lower right", fontsize=8)
-    x, y, top = height_map(pos, rad, 2 * rad.mean(), (0, L), (0, W))
+    step = rad.min()          # the grains' tops (sphere caps), so a coarse grain shows over every cell it covers
+    top = probed_surface(pos, rad, np.arange(step / 2, L, step), np.arange(step / 2, W, step), probe=0.0)
     im = a2.imshow((top - z0).T, origin="lower", extent=(0, L, 0, W), cmap="terrain", vmin=-60, vmax=20,
                    aspect="equal")
     fig.colorbar(im, ax=a2, label="top surface - undisturbed level, mm")
     a2.set_xlabel("x along the travel, mm")
     a2.set_ylabel("y, mm")
-    a2.set_title("height map of the formed holes (cell = one particle diameter)")
+    a2.set_title(f"height map of the formed holes: the grains' tops on a {step:.1f} mm grid")
     fig.tight_layout()
     written.append(folder / "holes.png")
     fig.savefig(written[-1], dpi=110)
