@@ -30,7 +30,7 @@ from analysis.batch import say
 from analysis.calibrate import cone_index, cone_run, same_cohesion, stored_cone
 from analysis.calibration_report import CAL, core_density
 from analysis.config import ROOT, SEED, ConfigError, Field, check_lateral, check_table, load_resolution, load_soil, read_toml
-from analysis.io import atomic_csv, stamp
+from analysis.io import atomic_csv, read_table, stamp
 from scripts.bed import TILES, bed_key, check_size, check_tiles
 from scripts.cone import CONE_FIELDS
 
@@ -75,8 +75,9 @@ def stored(case: dict) -> dict | None:
     return found[1] if found else None
 
 
-def row(case: dict, s: dict) -> dict:
-    """One tidy row: the case, its cone index and bed densities against Table 2, and its cost."""
+def row(case: dict, s: dict, earlier: dict | None = None) -> dict:
+    """One tidy row: the case, its cone index and bed densities against Table 2, and its cost. A bed not on this
+    machine keeps the densities and settling time of its row in `earlier` (bed -> the table's last row of it)."""
     soil = case["soil_cfg"]
     bed = ROOT / "results/beds" / f"{case['bed']}.json"
     interior = core = settle_s = float("nan")
@@ -84,8 +85,11 @@ def row(case: dict, s: dict) -> dict:
         meta = json.loads(bed.read_text())
         interior, settle_s = meta["dry_bulk_density"], meta["wall_s"]
         core = core_density(case["bed"], meta["grain_density"], soil.moisture)
-    else:        # a committed cone run whose bed (not committed) was settled on another machine
-        say(f"cone-checks: bed {case['bed']} not in results/beds/; its densities are left out")
+    elif case["bed"] in (earlier or {}):      # a committed cone run whose bed was settled on another machine
+        e = earlier[case["bed"]]
+        interior, core, settle_s = e["dry_density_interior"], e["dry_density_core"], e["bed_settle_s"]
+    else:
+        say(f"cone-checks: bed {case['bed']} not in results/beds/ nor in the earlier table; its densities are left out")
     n = case["tiles"]
     cell = [n * case["size"][0], n * case["size"][1], case["size"][2]]
     return {"check": case["check"], "soil": soil.name, "resolution": case["resolution"],
@@ -256,7 +260,10 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
     cases, stem = load_cases(config), Path(config).stem
     note = stamp(f"./holes cone-checks {config} " + ("--no-run" if no_run else f"--workers {workers} --threads {threads}"))
     done = {i: s for i, c in enumerate(cases) if (s := stored(c)) is not None}
-    rows = {i: row(cases[i], s) for i, s in done.items()}
+    table_path = out / f"{stem}.csv"
+    earlier = (read_table(table_path).drop_duplicates("bed", keep="last").set_index("bed").to_dict("index")
+               if table_path.exists() else {})
+    rows = {i: row(cases[i], s, earlier) for i, s in done.items()}
     groups: dict[str, list[int]] = {}
     for i, c in enumerate(cases):
         if i not in done and not no_run:      # one worker per settled bed: a tiled bed's copies come after it
@@ -265,7 +272,7 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
         if no_run else f"{len(cases) - len(done)} to run ({workers} at a time, {threads} thread(s) each)"))
 
     def write():
-        atomic_csv(pd.DataFrame([rows[i] for i in sorted(rows)]), out / f"{stem}.csv", note)
+        atomic_csv(pd.DataFrame([rows[i] for i in sorted(rows)]), table_path, note)
 
     failures, lock = [], threading.Lock()
 
@@ -284,7 +291,7 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
                 say(failures[-1])
                 continue
             with lock:
-                rows[i] = row(c, s)
+                rows[i] = row(c, s, earlier)
                 write()
                 say(f"cone-checks: {tag} {rows[i]['cone_index_kpa']} kPa; {len(rows)}/{len(cases)} finished, "
                     f"{len(failures)} failed")
