@@ -122,7 +122,15 @@ def tile(source: Path, tiles: int, out: Path) -> Path:
     rad = np.tile(data["radius"], tiles * tiles)
     meta.update(key=out.stem, size_m=[tiles * L, tiles * W, D], particles=int(len(rad)), tiles=tiles,
                 tiled_from=meta["key"])      # the settling's cost fields stay the source bed's
+    return save(out, pos, rad, meta)
+
+
+def save(out: Path, pos, rad, meta: dict) -> Path:
+    """The bed's grains (`out`, .npz) and metadata (.json beside it), each written atomically, the grains first:
+    a bed is on disk only once its .json is."""
+    import numpy as np
     tmp = out.with_name(f".{out.stem}.tmp.npz")
+    out.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(tmp, pos=pos, radius=rad)
     tmp.replace(out)
     atomic_write(out.with_suffix(".json"), json.dumps(meta, indent=1))
@@ -252,11 +260,7 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
                           "fine_depth": res.fine_depth, "fine_particles": int(fine.sum()),
                           "coarse_particles": int((~fine).sum()), "coarse_porosity": n_coarse,
                           "coarse_dry_bulk_density": grain_density * (1 - n_coarse) / (1 + soil.moisture)}
-    tmp = out.with_name(f".{out.stem}.tmp.npz")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(tmp, pos=pos, radius=rad)
-    tmp.replace(out)
-    atomic_write(out.with_suffix(".json"), json.dumps(meta, indent=1))
+    save(out, pos, rad, meta)
     log(f"bed {key}: {len(rad)} particles, porosity {n:.3f}, grain density {grain_density:.0f} kg/m3, "
         f"{meta['wall_s']:.0f} s wall")
     return out
