@@ -24,7 +24,8 @@ def beak_outline(cfg: dict, t: float) -> np.ndarray:
     closed beak's cone from its blunt tip P and the body above it, on the axis pepper.beak_axis."""
     p, ps = cfg["planter"], cfg["pass"]
     link = pepper.linkage_from_config(cfg["linkage"])
-    x, y, th4 = pepper.pose(link, cfg["speed_mm_s"], cfg["omega_rad_s"], [t], ps["y_ground"])
+    x, y, th4 = pepper.pose(link, cfg["speed_mm_s"], cfg["omega_rad_s"], [t], ps["y_ground"],
+                            cfg.get("travel_sign", -1))          # runs made before the sign was a setting used -1
     psi = float(pepper.beak_axis(th4[0], ps["theta4_bottom"]))
     e, n = np.array([math.cos(psi), math.sin(psi)]), np.array([-math.sin(psi), math.cos(psi)])
     tip = np.array([float(x[0]) + cfg["x_shift_mm"], float(y[0])])

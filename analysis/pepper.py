@@ -5,7 +5,9 @@ BD (L2) slides and swings in the guide C fixed at L3∠θ3 (eqs 1, 3, 4); D also
 DE (L4), the body EF (L5, fixed direction θ5: the parallelogram FGHI keeps body EFIJ from turning) and the
 rocker FG (L6) about G = L14∠α (eqs 2, 7-13); M = D + L8∠θ4 (eq 14) and the planter tip P = M + L7∠(θ4 + β)
 (eq 15, with β the angle between DM and MP as Table 1 defines it; the printed eq 15 writes cos β for
-cos θ7). Moving trajectory (eq 16): the machine travels at v along -x, as §2 states (eq 16 prints + vt).
+cos θ7). The crank turns counter-clockwise (§2). Moving trajectory (eq 16): X = x + sign·v·t. Eq 16 prints
++vt (sign = +1), but §2 says the machine moves along -x, which gives -vt: the text is inconsistent, so the
+sign is a setting ([operation] travel_sign in configs/pepper.toml) and the frame search tries both.
 
 Printed slips, corrected here and noted in the README: eq (4)'s θ2 = 2 arctan(...) does not follow from
 eq (3) (the rod passes through the guide, so θ2 = arg(C - B)); eq (13)'s A2 and B2 are swapped (the
@@ -130,7 +132,7 @@ def dead_point_margin(link: Linkage, s: dict) -> float:
 
 def motion(link: Linkage, theta1, omega: float):
     """Analytic velocity and acceleration of P (mm/s, mm/s²) at constant crank rate ω (rad/s), in the
-    machine's frame: the time derivatives of eq (15) (the moving frame adds -v to the x velocity)."""
+    machine's frame: the time derivatives of eq (15) (the ground frame of eq 16 adds sign·v to the x velocity)."""
     s = solve(link, theta1)
     zB = s["B"]
     dB, ddB = 1j * omega * zB, -omega ** 2 * zB
@@ -157,55 +159,136 @@ def motion(link: Linkage, theta1, omega: float):
     return s, dP, ddP
 
 
-def trajectory(link: Linkage, speed_mm_s: float, omega: float, n: int = 3601, theta1_0: float = 0.0):
-    """One crank turn of P: static points and the moving trajectory (eq 16, the machine going along -x)."""
-    th = theta1_0 + np.linspace(0, 2 * np.pi, n)
-    s = solve(link, th)
-    t = (th - theta1_0) / omega
-    return t, s["P"], s["P"] - speed_mm_s * t
+TRAVEL_SIGNS = {+1: "eq 16 as printed: X = x + vt", -1: "§2: the machine moves along -x, X = x - vt"}
+SPREAD_READINGS = {"gap": "the widest horizontal gap between the entry and exit paths at one level below III",
+                   "width": "the horizontal extent of P's path below III (the abstract's 'maximum transverse "
+                            "distance of the track under the ridge surface')"}
 
 
-def _monotone_branch(Y, i_min, step):
-    """Indices walking from the lowest point (cyclically, by `step` = ±1) while the height keeps rising."""
-    n = len(Y)
-    idx = [i_min]
-    while len(idx) < n - 1:
-        j = (idx[-1] + step) % n
-        if Y[j] < Y[idx[-1]]:
-            break
-        idx.append(j)
-    return np.array(idx)
+def check_travel_sign(sign) -> int:
+    if sign not in TRAVEL_SIGNS:
+        raise ConfigError(f"pepper travel_sign = {sign!r}: allowed +1 (eq 16 as printed) or -1 (§2's direction)")
+    return int(sign)
 
 
-def trajectory_metrics(link: Linkage, speed_mm_s: float, omega: float, n: int = 3601) -> dict:
-    """§3.1.1's three goals on the moving trajectory of P (eq 16), in mm:
+def moving_path(link: Linkage, speed_mm_s: float, omega: float, t, sign: int = +1, theta1_0: float = 0.0):
+    """P's moving trajectory (eq 16) at times t (s): the static point at crank angle θ1 = θ1_0 + ωt (the crank
+    turns counter-clockwise, §2) plus sign·v·t. Eq 16 prints +vt (sign = +1); §2 says the machine moves
+    along -x, which makes it -vt (sign = -1): the paper is inconsistent, so both are kept (TRAVEL_SIGNS)."""
+    t = np.asarray(t, float)
+    return solve(link, theta1_0 + omega * t)["P"] + sign * speed_mm_s * t
+
+
+def trajectory(link: Linkage, speed_mm_s: float, omega: float, n: int = 3601, theta1_0: float = 0.0,
+               sign: int = +1):
+    """One crank turn of P from θ1_0: times, static points and the moving trajectory (eq 16)."""
+    t = np.linspace(0, 2 * np.pi, n) / omega
+    s = solve(link, theta1_0 + omega * t)
+    return t, s["P"], s["P"] + sign * speed_mm_s * t
+
+
+def _boxes(Z, block):
+    """Bounding boxes (xmin, xmax, ymin, ymax) of the polyline Z's segments taken `block` at a time."""
+    idx = np.arange(0, len(Z) - 1, block)
+
+    def ends(f, v):
+        return f(f.reduceat(v[:-1], idx), f.reduceat(v[1:], idx))
+    return ends(np.minimum, Z.real), ends(np.maximum, Z.real), ends(np.minimum, Z.imag), ends(np.maximum, Z.imag)
+
+
+def crossings(A, B, block: int = 32):
+    """Every point where polyline A crosses polyline B (complex arrays): rows (i + s, j + u), A's and B's
+    fractional sample indices, with A[i] + s·(A[i+1] - A[i]) = B[j] + u·(B[j+1] - B[j]), 0 <= s, u < 1.
+    Blocks of segments whose bounding boxes do not overlap are skipped, so a long path costs little.
+
+    >>> crossings(np.array([0, 2 + 2j]), np.array([2, 2j]))
+    array([[0.5, 0.5]])
+    """
+    A, B = np.asarray(A, complex), np.asarray(B, complex)
+    ax0, ax1, ay0, ay1 = _boxes(A, block)
+    bx0, bx1, by0, by1 = _boxes(B, block)
+    pairs = np.argwhere((ax0[:, None] <= bx1[None]) & (bx0[None] <= ax1[:, None])
+                        & (ay0[:, None] <= by1[None]) & (by0[None] <= ay1[:, None]))
+    out = []
+    for p, q in pairs:
+        i = np.arange(p * block, min((p + 1) * block, len(A) - 1))[:, None]
+        j = np.arange(q * block, min((q + 1) * block, len(B) - 1))[None, :]
+        r, d, w = A[i + 1] - A[i], B[j + 1] - B[j], B[j] - A[i]
+        den = (r.real * d.imag - r.imag * d.real)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (w.real * d.imag - w.imag * d.real) / den
+            v = (w.real * r.imag - w.imag * r.real) / den
+        hit = (den != 0) & (s >= 0) & (s < 1) & (v >= 0) & (v < 1)
+        ii, jj = np.nonzero(hit)
+        out += [(i[k, 0] + s[k, m], j[0, m] + v[k, m]) for k, m in zip(ii, jj)]
+    return np.array(sorted(out), float).reshape(-1, 2)
+
+
+def _level_x(Z, levels):
+    """Each level's lowest and highest x where the polyline Z crosses it (nan where it does not)."""
+    y0, y1 = Z.imag[:-1][None], Z.imag[1:][None]
+    L = np.asarray(levels)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = (L - y0) / (y1 - y0)
+    x = np.where((f >= 0) & (f <= 1), Z.real[:-1][None] + f * (Z.real[1:] - Z.real[:-1])[None], np.nan)
+    return np.nanmin(x, axis=1), np.nanmax(x, axis=1)
+
+
+def trajectory_metrics(link: Linkage, speed_mm_s: float, omega: float, n: int = 3601, theta1_0: float = 0.0,
+                       sign: int = +1, spread: str = "gap") -> dict:
+    """§3.1.1's three goals on the moving trajectory of P (eq 16), in mm, on the continuous path (no wrap):
     - height: highest minus lowest point (goal 230);
-    - depth: lowest point II up to point III where the entry and exit paths cross (the ridge surface; goal
-      100); if they do not cross, III is where they come closest;
-    - spread: the largest horizontal distance between the entry and exit paths below III (goal 0);
-    - ground: III's level, the ridge surface, in the mechanism's frame."""
-    _, _, Z = trajectory(link, speed_mm_s, omega, n)
-    Z = Z[:-1]                                   # one period, the last point repeats the first
-    X, Y = Z.real, Z.imag
-    i_min = int(np.argmin(Y))
-    entry = _monotone_branch(Y, i_min, -1)
-    exit_ = _monotone_branch(Y, i_min, +1)
-    top = min(Y[entry].max(), Y[exit_].max())
-    levels = np.linspace(Y[i_min], top, 400)[1:]
-    xe = np.interp(levels, Y[entry], X[entry])
-    xx = np.interp(levels, Y[exit_], X[exit_])
-    gap = xx - xe
-    cross = np.flatnonzero(np.sign(gap[1:]) != np.sign(gap[:-1]))
-    if len(cross):
-        k = cross[0]
-        y3 = levels[k] - gap[k] * (levels[k + 1] - levels[k]) / (gap[k + 1] - gap[k])
+    - depth: the lowest point II up to III, where the exit path first crosses the entry path (the ridge
+      surface; goal 100): a true self-intersection of the path within one crank turn round II;
+    - spread: below III, by the reading `spread` (SPREAD_READINGS; goal 0);
+    - ground: III's level, the ridge surface, in the mechanism's frame (x_III: III's x on the path).
+    A path with no loop at the bottom has no III: crossed is False and depth, spread and ground are nan.
+    `n` samples per crank turn; θ1_0 only moves the path along x, so no metric depends on it."""
+    if spread not in SPREAD_READINGS:
+        raise ConfigError(f"pepper spread reading = {spread!r}: allowed {', '.join(SPREAD_READINGS)}")
+    _, Z, height = bottom_window(link, speed_mm_s, omega, n, theta1_0, sign)
+    return {**loop_metrics(Z, spread), "height": height}
+
+
+def bottom_window(link: Linkage, speed_mm_s: float, omega: float, n: int = 3601, theta1_0: float = 0.0,
+                  sign: int = +1):
+    """P's moving path (eq 16) sampled n times per crank turn, one turn either side of its lowest point II
+    (the middle sample): (times, path, height of one turn's path)."""
+    T = 2 * np.pi / omega
+    t1 = np.arange(n) * T / n
+    Y1 = solve(link, theta1_0 + omega * t1)["P"].imag
+    t = t1[int(np.argmin(Y1))] + np.arange(-n, n + 1) * T / n
+    return t, moving_path(link, speed_mm_s, omega, t, sign, theta1_0), float(Y1.max() - Y1.min())
+
+
+def loop_metrics(Z, spread: str = "gap") -> dict:
+    """Depth, spread and ground (III's level) of a moving path Z sampled evenly over one crank turn either
+    side of its lowest point II, which is its middle sample (see trajectory_metrics); nan and crossed False
+    where the exit path never meets the entry path within one turn. The height of Z is reported too."""
+    n = (len(Z) - 1) // 2
+    entry, exit_ = Z[:n + 1], Z[n:]
+    out = {"height": float(Z.imag.max() - Z.imag.min()), "depth": math.nan, "spread": math.nan, "crossed": False,
+           "ground": math.nan, "x_III": math.nan}
+    c = crossings(entry, exit_)
+    c = c[c[:, 1] <= c[:, 0]]              # the loop closes within one crank turn (entry a - n, exit b turns/n)
+    if not len(c):
+        return out
+    a, b = c[np.argmin(c[:, 1])]                             # where the exit first meets the entry
+    ia, ib = int(a), int(b)
+    III = entry[ia] + (a - ia) * (entry[ia + 1] - entry[ia])
+    y_min, y3 = float(Z.imag[n]), float(III.imag)
+    loop_in = np.append(III, entry[ia + 1:])                 # III down to II ...
+    loop_out = np.append(exit_[:ib + 1], III)                # ... and back up to III
+    if spread == "gap":
+        levels = np.linspace(y_min, y3, 202)[1:-1]
+        (ein, eax), (xin, xax) = _level_x(loop_in, levels), _level_x(loop_out, levels)
+        width = np.nanmax(np.abs(np.concatenate([xax - ein, eax - xin])))
     else:
-        k = int(np.argmin(np.abs(gap)))
-        y3 = levels[k]
-    below = levels <= y3
-    spread = float(np.max(np.abs(gap[below]))) if below.any() else 0.0
-    return {"height": float(Y.max() - Y.min()), "depth": float(y3 - Y[i_min]), "spread": spread,
-            "crossed": bool(len(cross)), "ground": float(y3)}
+        loop = np.concatenate([loop_in, loop_out])
+        below = loop[loop.imag <= y3]
+        width = below.real.max() - below.real.min()
+    out.update(depth=y3 - y_min, spread=float(width), crossed=True, ground=y3, x_III=float(III.real))
+    return out
 
 
 def check_dead_point(link: Linkage, s: dict, tol: float = 1.0):
@@ -218,12 +301,13 @@ def check_dead_point(link: Linkage, s: dict, tol: float = 1.0):
     return margin
 
 
-def pose(link: Linkage, speed_mm_s: float, omega: float, t, y_ground: float):
-    """P on the ground's frame at times t (s) from θ1 = 0 (eq 16: x along -v from a point fixed in the ground,
-    y up from the ridge surface), and θ4, the angle of the body DM that carries the planter (mm, rad)."""
+def pose(link: Linkage, speed_mm_s: float, omega: float, t, y_ground: float, sign: int = +1):
+    """P on the ground's frame at times t (s) from θ1 = 0 (eq 16 with travel sign `sign`: x from a point fixed
+    in the ground, y up from the ridge surface), and θ4, the angle of the body DM that carries the planter
+    (mm, rad)."""
     t = np.asarray(t, float)
     s = solve(link, omega * t)
-    Z = s["P"] - speed_mm_s * t
+    Z = s["P"] + sign * speed_mm_s * t
     return Z.real, Z.imag - y_ground, s["theta4"]
 
 
@@ -246,11 +330,16 @@ class PlanterPass:
     theta4_bottom: float
 
 
-def planter_pass(link: Linkage, speed_mm_s: float, omega: float, clearance: float, n: int = 7201) -> PlanterPass:
-    """Find the pass on two crank turns sampled at n points per turn (it may straddle θ1 = 0)."""
-    y_ground = trajectory_metrics(link, speed_mm_s, omega)["ground"]
+def planter_pass(link: Linkage, speed_mm_s: float, omega: float, clearance: float, n: int = 7201,
+                 sign: int = +1) -> PlanterPass:
+    """Find the pass on two crank turns sampled at n points per turn (it may straddle θ1 = 0). ValueError if
+    the path has no loop at the bottom (no ridge surface III)."""
+    m = trajectory_metrics(link, speed_mm_s, omega, sign=sign)
+    if not m["crossed"]:
+        raise ValueError("pepper planter: P's moving path has no loop at the bottom, so no ridge surface III")
+    y_ground = m["ground"]
     t = np.linspace(0.0, 4 * np.pi, 2 * n - 1) / omega
-    x, y, th4 = pose(link, speed_mm_s, omega, t, y_ground)
+    x, y, th4 = pose(link, speed_mm_s, omega, t, y_ground, sign)
     half = (n - 1) // 2
     i_min = half + int(np.argmin(y[half:half + n]))            # the lowest point of one turn, inside the window
     before, after = np.flatnonzero(y[:i_min] > clearance), np.flatnonzero(y[i_min:] > clearance)

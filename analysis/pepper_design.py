@@ -14,11 +14,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from analysis.config import ConfigError, read_toml
-from analysis.pepper import (ANGLES, Linkage, assembly_margin, dead_point_margin, linkage_to_config, load_linkage,
-                             motion, solve, trajectory, trajectory_metrics)
+from analysis.pepper import (ANGLES, SPREAD_READINGS, Linkage, assembly_margin, bottom_window, check_travel_sign,
+                             dead_point_margin, linkage_to_config, load_linkage, motion, solve, trajectory,
+                             trajectory_metrics)
 
 VARIABLES = ("L1", "L2", "L4", "L5", "L6", "L8", "beta")
 GOAL_NAMES = ("spread", "depth", "height")
+DRAWS = 200            # random draws allowed per random start of the design
+MARGIN_TOL = 0.05      # mm: how far past a margin the optimiser's last step may end and still count as feasible
 
 
 @dataclass(frozen=True)
@@ -29,6 +32,8 @@ class Goals:
     assembly_margin: float
     speed: float           # mm/s
     omega: float           # rad/s
+    sign: int = 1          # eq 16's travel sign (analysis/pepper.py TRAVEL_SIGNS)
+    spread_reading: str = "gap"    # analysis/pepper.py SPREAD_READINGS
 
 
 def load_goals(path="configs/pepper.toml") -> Goals:
@@ -38,9 +43,13 @@ def load_goals(path="configs/pepper.toml") -> Goals:
         if len(g[k]) != 3 or (k == "weight" and min(g[k]) <= 0):
             raise ConfigError(f"{path}: goals.{k} = {g[k]!r}: allowed three numbers (spread, depth, height)"
                               + (", each > 0" if k == "weight" else ""))
+    if g["spread_reading"] not in SPREAD_READINGS:
+        raise ConfigError(f"{path}: goals.spread_reading = {g['spread_reading']!r}: allowed "
+                          f"{', '.join(SPREAD_READINGS)}")
     return Goals(tuple(map(float, g["target"])), tuple(map(float, g["weight"])), float(g["dead_point_margin"]),
                  float(g["assembly_margin"]),
-                 speed=1000.0 * op["speed"], omega=2 * math.pi * op["plants_per_min"] / 60.0)
+                 speed=1000.0 * op["speed"], omega=2 * math.pi * op["plants_per_min"] / 60.0,
+                 sign=check_travel_sign(op["travel_sign"]), spread_reading=g["spread_reading"])
 
 
 def ranges(path="configs/pepper.toml") -> np.ndarray:
@@ -58,8 +67,11 @@ def values(link: Linkage) -> np.ndarray:
 
 
 def goal_values(link: Linkage, goals: Goals, n: int = 1441) -> np.ndarray:
-    """F(x) = (spread, depth, height) of P's moving trajectory (eq 16); ValueError if it cannot move."""
-    m = trajectory_metrics(link, goals.speed, goals.omega, n)
+    """F(x) = (spread, depth, height) of P's moving trajectory (eq 16); ValueError if it cannot move or its
+    path has no loop at the bottom (no ridge surface to measure the depth and spread from)."""
+    m = trajectory_metrics(link, goals.speed, goals.omega, n, sign=goals.sign, spread=goals.spread_reading)
+    if not m["crossed"]:
+        raise ValueError("pepper: P's moving path has no loop at the bottom")
     return np.array([m["spread"], m["depth"], m["height"]])
 
 
@@ -74,8 +86,8 @@ def margins(link: Linkage, n: int = 721) -> tuple[float, float]:
     return dead_point_margin(link, solve(link, th)), assembly_margin(link, th)
 
 
-def feasible(m: tuple[float, float], goals: Goals) -> bool:
-    return m[0] >= goals.dead_point_margin and m[1] >= goals.assembly_margin
+def feasible(m: tuple[float, float], goals: Goals, tol: float = 0.0) -> bool:
+    return m[0] >= goals.dead_point_margin - tol and m[1] >= goals.assembly_margin - tol
 
 
 @dataclass
@@ -90,8 +102,9 @@ class Design:
 
 def design(start: Linkage, goals: Goals, bounds: np.ndarray, starts: int = 6, seed: int = 1,
            n: int = 1441) -> Design:
-    """Goal attainment from `start` (and `starts - 1` random starts inside `bounds`): the feasible design with
-    the smallest γ. Infeasible points (unassemblable, dead point) are kept out by the constraints."""
+    """Goal attainment from `start` (and `starts - 1` random starts inside `bounds`, each drawn (seeded) until it
+    assembles, loops under the ridge and clears the margins): the feasible design with the smallest γ.
+    Infeasible points (unassemblable, dead point, no loop) are kept out by the constraints."""
     from scipy.optimize import minimize
     lo, hi = bounds[:, 0], bounds[:, 1]
     scale = hi - lo
@@ -119,9 +132,18 @@ def design(start: Linkage, goals: Goals, bounds: np.ndarray, starts: int = 6, se
         return np.concatenate([w * g - dev, w * g + dev, [mg[0] - goals.dead_point_margin,
                                                           mg[1] - goals.assembly_margin]])
 
+    def usable(z):
+        F, mg = F_of(z)
+        return F is not None and feasible(mg, goals)
+
     rng = np.random.default_rng(seed)
-    z0s = [np.clip((values(start) - lo) / scale, 0, 1)] + [rng.uniform(0.1, 0.9, len(VARIABLES))
-                                                          for _ in range(starts - 1)]
+    z0s = [np.clip((values(start) - lo) / scale, 0, 1)]
+    for _ in range(DRAWS * (starts - 1)):          # random starts that assemble, loop and clear the margins:
+        if len(z0s) == starts:                      # most of Table 2's box does not
+            break
+        z = rng.uniform(0.05, 0.95, len(VARIABLES))
+        if usable(z):
+            z0s.append(z)
     best = None
     for z0 in z0s:
         F0, _ = F_of(z0)
@@ -132,7 +154,7 @@ def design(start: Linkage, goals: Goals, bounds: np.ndarray, starts: int = 6, se
                        bounds=[(0, 1)] * len(VARIABLES) + [(0, None)], options={"maxiter": 200, "ftol": 1e-6})
         z = np.clip(res.x[:-1], 0, 1)
         F, mg = F_of(z)
-        if F is None or not feasible(mg, goals):
+        if F is None or not feasible(mg, goals, MARGIN_TOL):      # SLSQP ends on an active margin, a hair over
             continue
         gamma = attainment(F, goals)
         if best is None or gamma < best[0]:
@@ -171,20 +193,29 @@ def plot(columns: dict, goals: Goals, out, note: str):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     written = []
-    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 5.5))
-    for c, (link, F) in columns.items():
-        t, P, Pm = trajectory(link, goals.speed, goals.omega)
-        a.plot(P.real, P.imag, label=c)
-        b.plot(Pm.real - Pm.real[0], Pm.imag, label=f"{c}: spread {F[0]:.1f}, depth {F[1]:.1f}, height {F[2]:.1f}")
-    for ax, title in ((a, "(a) static trajectory of P"), (b, "(b) moving trajectory (eq 16, v along -x)")):
-        ax.set_aspect("equal")
+    fig, (a, b) = plt.subplots(1, 2, figsize=(13, 5.2), layout="constrained")
+    for (c, (link, F)), colour in zip(columns.items(), ("C0", "C1", "C2")):
+        _, P, _ = trajectory(link, goals.speed, goals.omega, sign=goals.sign)
+        a.plot(P.real, P.imag, color=colour, label=c)
+        _, Z, _ = bottom_window(link, goals.speed, goals.omega, 1441, sign=goals.sign)
+        m = trajectory_metrics(link, goals.speed, goals.omega, sign=goals.sign, spread=goals.spread_reading)
+        x0 = m["x_III"] if m["crossed"] else Z.real[len(Z) // 2]
+        b.plot(Z.real - x0, Z.imag, color=colour,
+               label=f"{c}: spread {F[0]:.1f}, depth {F[1]:.1f}, height {F[2]:.1f}")
+        if m["crossed"]:
+            b.plot([0], [m["ground"]], "o", color=colour, ms=4)
+            b.axhline(m["ground"], color=colour, lw=0.6, ls=":")
+    sense = "+vt as printed" if goals.sign > 0 else "-vt, §2's direction"
+    for ax, title in ((a, "(a) static trajectory of P (one crank turn)"),
+                      (b, f"(b) moving trajectory (eq 16, {sense}), a turn either side of the bottom\n"
+                          f"x from the crossing III (dot); dotted: the ridge surface")):
+        ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel("x, mm")
         ax.set_ylabel("y, mm")
-        ax.set_title(title)
+        ax.set_title(title, fontsize=10)
         ax.grid(alpha=0.3)
     b.legend(fontsize=7, loc="upper right")
     fig.suptitle(note, fontsize=8)
-    fig.tight_layout()
     written.append(out / "trajectories.png")
     fig.savefig(written[-1], dpi=120)
     plt.close(fig)
@@ -195,8 +226,8 @@ def plot(columns: dict, goals: Goals, out, note: str):
         s, dP, ddP = motion(link, th, goals.omega)
         t = th / goals.omega
         axes[0].plot(t, s["P"].imag - s["P"].imag.min(), label=f"{c}: y")
-        axes[0].plot(t, s["P"].real - goals.speed * t - s["P"].real[0], ls="--", label=f"{c}: x (moving)")
-        axes[1].plot(t, (dP.real - goals.speed) / 1000, label=f"{c}: vx")
+        axes[0].plot(t, s["P"].real + goals.sign * goals.speed * t - s["P"].real[0], ls="--", label=f"{c}: x (moving)")
+        axes[1].plot(t, (dP.real + goals.sign * goals.speed) / 1000, label=f"{c}: vx")
         axes[1].plot(t, dP.imag / 1000, ls="--", label=f"{c}: vy")
         axes[2].plot(t, ddP.real / 1000, label=f"{c}: ax")
         axes[2].plot(t, ddP.imag / 1000, ls="--", label=f"{c}: ay")

@@ -33,9 +33,9 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (ROOT, SEED, ConfigError, Field, as_dict, check_table, load_resolution, load_soil,  # noqa: E402
-                             parse_overrides, read_toml)
-from analysis.io import atomic_write  # noqa: E402
+from analysis.config import (ROOT, SEED, THREADS, ConfigError, Field, as_dict, check_table, load_resolution, load_soil,  # noqa: E402
+                             option, parse_overrides, read_toml)
+from analysis.io import atomic_write, provenance  # noqa: E402
 from analysis.kinematics import TIP_SPHERE_RATIO  # noqa: E402
 
 PLANTER_FIELDS = {"D": Field(20.0, 150.0, unit="mm", meaning="closed beak's base diameter"),
@@ -74,13 +74,13 @@ def plan(path="configs/pepper.toml", **changes) -> dict:
     link = pepper.load_linkage(scene["column"], path)
     goals = load_goals(path)                     # the operation: v (mm/s) and the crank's rate ω (rad/s)
     speed, omega = goals.speed, goals.omega
-    ps = pepper.planter_pass(link, speed, omega, scene["clearance"])
+    ps = pepper.planter_pass(link, speed, omega, scene["clearance"], sign=goals.sign)
     if ps.depth >= planter["beak_length"] + planter["body_length"]:
         raise ConfigError(f"planter: beak_length + body_length = "
                           f"{planter['beak_length'] + planter['body_length']:g} mm "
                           f"is out of range: allowed > the tip's depth {ps.depth:.1f} mm")
     t = np.linspace(ps.t_in, ps.t_out, PASS_SAMPLES)
-    x, y, th4 = pepper.pose(link, speed, omega, t, ps.y_ground)
+    x, y, th4 = pepper.pose(link, speed, omega, t, ps.y_ground, goals.sign)
     psi = pepper.beak_axis(th4, ps.theta4_bottom)
     top = x - (planter["beak_length"] + planter["body_length"]) * np.cos(psi)
     reach = (min(x.min(), top.min()) - planter["D"] / 2, max(x.max(), top.max()) + planter["D"] / 2)
@@ -91,7 +91,7 @@ def plan(path="configs/pepper.toml", **changes) -> dict:
     tip = {"sphere": a_tip, "blunt": a_tip / math.sin(math.atan2(planter["D"] / 2, planter["beak_length"])) - a_tip}
     params = {"scene": "duckbeak", "soil": as_dict(soil), "planter": planter, "soil_scene": scene, "tip": tip,
               "linkage": pepper.linkage_to_config(link),
-              "speed_mm_s": speed, "omega_rad_s": omega, "seed": scene["seed"],
+              "speed_mm_s": speed, "omega_rad_s": omega, "travel_sign": goals.sign, "seed": scene["seed"],
               "pass": dataclasses.asdict(ps),
               "x_shift_mm": (length - (reach[1] - reach[0])) / 2 - reach[0],     # the reach centred in the bed
               "bed_size_mm": [length, scene["width"], depth]}
@@ -112,7 +112,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     bed_path = bedmod.build(soil.name, scene["resolution"], params["bed_size_mm"], params["seed"], threads,
                             quiet=quiet, bed_dir=bed_dir or bedmod.BED_DIR)
     meta = bedmod.load_meta(bed_path)
-    out = open_run_folder(out_root, params)
+    out = open_run_folder(out_root, params, threads)
 
     wall0 = time.time()
     data, grain_ids, steel, z_surface, bed_mass = start_scene(soil, bed_path, meta, threads, 0.3)
@@ -128,7 +128,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
 
     def target(t):
         """The planter's reference point (its tip sphere's centre, m) and its axis angle ψ at crank time t."""
-        x, y, th4 = pepper.pose(link, speed, omega, [t], ps["y_ground"])
+        x, y, th4 = pepper.pose(link, speed, omega, [t], ps["y_ground"], params["travel_sign"])
         psi = float(pepper.beak_axis(th4[0], ps["theta4_bottom"]))
         e = Vector3(math.cos(psi), 0, math.sin(psi))
         tip = Vector3((float(x[0]) + params["x_shift_mm"]) * mm, y_c, z_surface + float(y[0]) * mm)
@@ -181,7 +181,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     t_pass = ps["t_out"] - ps["t_in"]
     n_pass, n_relax = int(t_pass / O.dt) + 1, int(scene["relax"] / O.dt)
     top_speed = float(np.max(np.abs(pepper.motion(link, omega * np.linspace(ps["t_in"], ps["t_out"], 50), omega)[1]
-                                    - speed))) * mm                          # P's fastest, ground frame (m/s)
+                                    + params["travel_sign"] * speed))) * mm                          # P's fastest, ground frame (m/s)
     log(f"duckbeak {params['id']}: {len(grain_ids)} grains, bed {meta['key']}, pass {1000 * t_pass:.0f} ms "
         f"({n_pass} steps of {O.dt:.2e} s) + settling for up to {n_relax} steps; tip to {ps['depth']:.1f} mm")
     vmax, v_now = 0.0, math.inf
@@ -199,7 +199,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     settled = v_now <= scene["settled_speed"]
     wall = time.time() - wall0
     save_state(out, grain_ids, z_surface, data, "t_s,ref_x_m,tip_z_m,psi_deg,planter_fx_n,planter_fz_n", st["rows"])
-    summary = {"id": params["id"], "scene": "duckbeak", "soil": soil.name, "preset": scene["resolution"],
+    summary = {"id": params["id"], "provenance": provenance(threads), "scene": "duckbeak", "soil": soil.name, "preset": scene["resolution"],
                "bed": meta["key"], "particles": len(grain_ids), "steps": int(O.iter), "dt": O.dt, "wall_s": wall,
                "threads": threads, "particle_steps_per_s": len(grain_ids) * O.iter / wall, "sim_time_s": O.time,
                "z_surface_m": z_surface, "holes": 1, "lead_in": 0,
@@ -212,14 +212,14 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
 
 def main(argv=None) -> int:
     from scripts import bed
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="holes duckbeak", description=__doc__.splitlines()[0])
     p.add_argument("--config", default="configs/pepper.toml")
     p.add_argument("--soil", help="default: [soil_scene].soil")
     p.add_argument("--column", help="Table 2's column: initial | designed")
     p.add_argument("--resolution")
     p.add_argument("--set", action="append", metavar="KEY=NUMBER",
                    help="override a number of [planter] or [soil_scene], e.g. D=50, seed=2, relax=0.5")
-    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
     p.add_argument("--out", help="runs folder (default results/runs)")
     p.add_argument("--report", default=str(ROOT / "results/pepper/duckbeak"),
                    help="where the hole's table and pictures are copied (default results/pepper/duckbeak)")
