@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from analysis.config import ROOT, ConfigError, load_disk
+from analysis.config import CONE_FIELDS, ROOT, SEED, THREADS, WORKERS, ConfigError, Field, load_disk, option
 
 
 def cmd_theory(args) -> int:
@@ -40,10 +40,9 @@ def cmd_params(args) -> int:
 
 def cmd_calibrate(args) -> int:
     from analysis import calibrate
-    lo, hi = (float(v) for v in args.cohesion_range.split(","))
+    lo, hi = args.cohesion_range
     try:
-        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi,
-                      [int(v) for v in args.seeds.split(",")], args.speed, args.threads, args.lateral, args.workers)
+        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, args.seeds, args.speed, args.threads, args.lateral, args.workers)
     except (ValueError, RuntimeError) as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1
@@ -90,7 +89,7 @@ def cmd_rings(args) -> int:
 def cmd_compare(args) -> int:
     from analysis import compare_job
     try:
-        return compare_job.run(args.preset, args.soils.split(","), [int(s) for s in args.seeds.split(",")],
+        return compare_job.run(args.preset, args.soils.split(","), args.seeds,
                                args.threads, args.parallel, args.runs_dir, args.bed_dir, args.out, args.no_run, args.kept,
                                args.scheduler)
     except ConfigError as e:
@@ -115,22 +114,11 @@ def cmd_study(args) -> int:
 
 
 def cmd_pepper_frame(args) -> int:
-    import pandas as pd
     from analysis import pepper_frame
     out = Path(args.out) if args.out else ROOT / "results/pepper"
-    if not 1 <= args.fits <= 100000:
-        print(f"pepper-frame: --fits = {args.fits} is out of range: allowed 1-100000", file=sys.stderr)
-        return 2
-    table = pepper_frame.run(out, f"./holes pepper-frame --fits {args.fits}", args.fits,
+    table = pepper_frame.run(out, f"./holes pepper-frame --screen {args.screen}", args.screen, args.workers,
                              lambda m: print(m, file=sys.stderr, flush=True))
-    results = table[table.column != "frame"]
-    wide = results.pivot_table(index=["column", "quantity"], columns=["target", "reading"], values="fitted", sort=False)
-    wide.insert(0, "stated", results.groupby(["column", "quantity"], sort=False).stated.first())
-    with pd.option_context("display.width", 250, "display.max_columns", 20):
-        print(wide.round(3).to_string())
-        print(table[table.column == "frame"].pivot_table(index="quantity", columns=["target", "reading"],
-                                                         values="fitted", sort=False).round(1).to_string())
-    print(table.groupby(["target", "reading"], sort=False)[["rms", "fits", "starts"]].first().round(2).to_string())
+    print(pepper_frame.summary(table).to_string(index=False))
     print(f"wrote {out / 'frame_fit.csv'}")
     return 0
 
@@ -251,84 +239,72 @@ def workers(args) -> int:
 
 def scene_batch_options(p, threads: int, out_help: str):
     """The options every batch of disk scenes shares (compare, study)."""
-    p.add_argument("--threads", type=int, default=threads, help=f"YADE threads per run (default {threads})")
+    p.add_argument("--threads", type=option("--threads", THREADS), default=threads,
+                   help=f"YADE threads per run (default {threads})")
     p.add_argument("--runs-dir", help="runs folder (default results/runs)")
     p.add_argument("--bed-dir", help="beds folder (default results/beds)")
     p.add_argument("--out", help=out_help)
 
 
+STARTS = Field(1, 1000, kind=int, meaning="optimiser starts")
+SCREEN = Field(1, 10 ** 6, kind=int, meaning="random frames scored per case")
+STEPS = Field(1, 10 ** 7, kind=int, meaning="steps per setting")
+COHESION = Field(0.0, 1e8, unit="Pa", meaning="bond strength")
+
+
+def cohesion_range(text: str) -> tuple[float, float]:
+    """--cohesion-range lo,hi (Pa): two numbers in COHESION's range, lo < hi."""
+    values = option("--cohesion-range", COHESION, many=True)(text)
+    if len(values) != 2 or values[0] >= values[1]:
+        raise argparse.ArgumentTypeError(f"--cohesion-range = {text!r}: allowed lo,hi with lo < hi, each in "
+                                         f"{COHESION.allowed()}")
+    return values[0], values[1]
+
+
+def run_folder(text: str) -> Path:
+    """A finished run's folder: it must hold the run's config.json."""
+    if not (Path(text) / "config.json").is_file():
+        raise argparse.ArgumentTypeError(f"run folder {text!r}: no config.json there; allowed: a folder "
+                                         "results/runs/<id> of a finished run")
+    return Path(text)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="holes", description=__doc__)
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = argparse.ArgumentParser(prog="holes", description=__doc__ + " Commands in workflow order: theory; "
+                                     "beds and calibration; runs, measuring and the field comparison (the main job: "
+                                     "compare); studies and benchmarks; seed 000's duck-beak; the parameter page.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    def scene(name: str, script: str, text: str):
+        """A YADE scene's own command line (scripts/SCRIPT; `./holes NAME --help` shows its options)."""
+        q = sub.add_parser(name, help=text, add_help=False)
+        q.set_defaults(func=lambda a: run_scene(script, a.rest))
+
     p = sub.add_parser("theory", help="rigid-punch theory: Table 1 and Figs. 5, 6, 8 analogs (seed 001 §2.3)")
     p.add_argument("--disk", default="configs/disk.toml", help="disk config (default: the seed's disk)")
     p.add_argument("--out", help="output folder (default results/theory/[disk name])")
     p.set_defaults(func=cmd_theory)
-    p = sub.add_parser("params", help="write configs/README.md: every config key, its range, value, meaning, source")
-    p.set_defaults(func=cmd_params)
-    p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
-    p.add_argument("file", nargs="+", help="study file(s), e.g. configs/studies/slip.toml; several run as one batch")
-    p.add_argument("--workers", type=int, help="cases at a time (default: cores / threads)")
-    p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786); default: local")
-    scene_batch_options(p, 1, "table folder (default results/studies)")
-    p.add_argument("--export-batch", metavar="TABLE", help="write a yade-batch parameter table instead of running")
-    p.add_argument("--no-run", action="store_true", help="table and plot of the cases that finished; run nothing")
-    p.set_defaults(func=cmd_study)
-    p = sub.add_parser("pepper", help="duck-beak mechanism (seed 000): goal-attainment design and results/pepper/")
-    p.add_argument("--starts", type=int, default=6, help="optimiser starts: Table 2's initial column + random")
-    p.add_argument("--out", help="output folder (default results/pepper)")
-    p.set_defaults(func=cmd_pepper)
-    p = sub.add_parser("pepper-frame", help="duck-beak mechanism: infer the frame the text omits from its stated results")
-    p.add_argument("--fits", type=int, default=200, help="least-squares fits from random starts, per reading of eq (15)")
-    p.add_argument("--out", help="output folder (default results/pepper)")
-    p.set_defaults(func=cmd_pepper_frame)
-    for name, script, text in (("bed", "bed.py", "settle and level a soil bed (cached by soil, resolution, size, seed)"),
-                               ("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)"),
-                               ("run", "disk.py", "the rolling punch disk with press sleeves in a soil strip"),
-                               ("duckbeak", "duckbeak.py", "the duck-beak planter (seed 000) through a ridge bed")):
-        p = sub.add_parser(name, help=text, add_help=False)
-        p.set_defaults(func=lambda a, script=script: run_scene(script, a.rest))
+    scene("bed", "bed.py", "settle and level a soil bed (cached by soil, resolution, size, seed)")
+    scene("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)")
     p = sub.add_parser("calibrate", help="fit a soil's cohesion to the Table 2 cone index (within 5 %%)")
     p.add_argument("--soil", required=True)
     p.add_argument("--resolution", default="coarse", help="the beds' grains (default: r = 8 mm, as calibrated)")
     p.add_argument("--size", default="450,450,280",
                    help="bed length,width,depth in mm (default: wide enough to hold the cone's bond damage)")
-    p.add_argument("--cone-scale", type=float, default=3.0)
-    p.add_argument("--speed", type=float, default=0.5, help="cone speed, m/s")
-    p.add_argument("--seeds", default="1", help="packing seeds; the cone index is their mean, e.g. 1,2,3")
+    p.add_argument("--cone-scale", type=option("--cone-scale", CONE_FIELDS["cone_scale"]), default=3.0,
+                   help="cone size / ASABE S313 size (default 3)")
+    p.add_argument("--speed", type=option("--speed", CONE_FIELDS["speed"]), default=0.5, help="cone speed, m/s (default 0.5)")
+    p.add_argument("--seeds", type=option("--seeds", SEED, many=True), default=[1],
+                   help="packing seeds; the cone index is their mean, e.g. 1,2,3")
     p.add_argument("--lateral", default="periodic", help="the beds' sides: periodic (no side walls) | walls")
-    p.add_argument("--workers", type=int, default=2, help="cone scenes at a time")
-    p.add_argument("--threads", type=int, default=1, help="threads per scene")
-    p.add_argument("--cohesion-range", default="0,200000", help="lo,hi in Pa")
+    p.add_argument("--workers", type=option("--workers", WORKERS), default=2, help="cone scenes at a time")
+    p.add_argument("--threads", type=option("--threads", THREADS), default=1, help="threads per scene")
+    p.add_argument("--cohesion-range", type=cohesion_range, default=(0.0, 200000.0), help="lo,hi in Pa (default 0,200000)")
     p.set_defaults(func=cmd_calibrate)
-    p = sub.add_parser("report", help="pictures of one run: the holes and the tool's forces")
-    p.add_argument("folder", help="results/runs/<id>")
-    p.set_defaults(func=cmd_report)
-    p = sub.add_parser("measure", help="measure the holes of finished runs (L0, L1, L2, h1, C; seed 001 §4.2)")
-    p.add_argument("folders", nargs="+", help="results/runs/<id> ...")
-    p.set_defaults(func=cmd_measure)
-    p = sub.add_parser("rings", help="the pressed ring beside each hole of finished runs, against the plate's level")
-    p.add_argument("folders", nargs="+", help="results/runs/<id> ...")
-    p.add_argument("--out", default="results/comparison/rings")
-    p.set_defaults(func=cmd_rings)
-    p = sub.add_parser("compare", help="the main job: run, measure and set the holes beside the field's Table 3")
-    p.add_argument("--preset", default="quick")
-    p.add_argument("--soils", default="clay,loam,sand")
-    p.add_argument("--seeds", default="1", help="packing seeds, one run each, e.g. 1,2,3")
-    p.add_argument("--parallel", type=int, default=1, help="runs at a time")
-    p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786): the runs go to "
-                   "its workers, as a study's cases do; default: local")
-    scene_batch_options(p, 2, "where comparison.csv/.md and comparison/ go (default results)")
-    p.add_argument("--no-run", action="store_true", help="measure the finished runs only; run nothing")
-    p.add_argument("--kept", action="store_true", help="a run not on this machine but kept beside the table "
-                   "(<out>/comparison/runs/) is not run: it is measured again from its kept grains (state.npz), or "
-                   "its kept holes.csv is read if it has none; pool runs made elsewhere")
-    p.set_defaults(func=cmd_compare)
     p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "
                        "cone-to-particle ratio, core density (results/calibration/cone_checks.csv, .png)")
     p.add_argument("config", nargs="?", default="configs/cone_checks.toml")
-    p.add_argument("--workers", type=int, default=2, help="cone scenes at a time")
-    p.add_argument("--threads", type=int, default=1, help="threads per scene")
+    p.add_argument("--workers", type=option("--workers", WORKERS), default=2, help="cone scenes at a time")
+    p.add_argument("--threads", type=option("--threads", THREADS), default=1, help="threads per scene")
     p.add_argument("--no-run", action="store_true", help="table and plot of the stored cases only; run nothing")
     p.set_defaults(func=cmd_cone_checks)
     p = sub.add_parser("cone-damage", help="how far cone runs made with --damage broke the bed's bonds "
@@ -337,6 +313,39 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_cone_damage)
     p = sub.add_parser("calibration-report", help="table and resistance plot of the accepted calibrations")
     p.set_defaults(func=cmd_calibration_report)
+    scene("run", "disk.py", "the rolling punch disk with press sleeves in a soil strip")
+    p = sub.add_parser("measure", help="measure the holes of finished runs (L0, L1, L2, h1, C; seed 001 §4.2)")
+    p.add_argument("folders", nargs="+", type=run_folder, help="results/runs/<id> ...")
+    p.set_defaults(func=cmd_measure)
+    p = sub.add_parser("report", help="pictures of one run: the holes and the tool's forces")
+    p.add_argument("folder", type=run_folder, help="results/runs/<id>")
+    p.set_defaults(func=cmd_report)
+    p = sub.add_parser("rings", help="the pressed ring beside each hole of finished runs, against the plate's level")
+    p.add_argument("folders", nargs="+", type=run_folder, help="results/runs/<id> ...")
+    p.add_argument("--out", default="results/comparison/rings")
+    p.set_defaults(func=cmd_rings)
+    p = sub.add_parser("compare", help="the main job: run, measure and set the holes beside the field's Table 3")
+    p.add_argument("--preset", default="quick")
+    p.add_argument("--soils", default="clay,loam,sand")
+    p.add_argument("--seeds", type=option("--seeds", SEED, many=True), default=[1],
+                   help="packing seeds, one run each, e.g. 1,2,3")
+    p.add_argument("--parallel", type=option("--parallel", WORKERS), default=1, help="runs at a time")
+    p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786): the runs go to "
+                   "its workers, as a study's cases do; default: local")
+    scene_batch_options(p, 2, "where comparison.csv/.md and comparison/ go (default results)")
+    p.add_argument("--no-run", action="store_true", help="measure the finished runs only; run nothing")
+    p.add_argument("--kept", action="store_true", help="a run not on this machine but kept beside the table "
+                   "(<out>/comparison/runs/) is not run: it is measured again from its kept grains (state.npz), or "
+                   "its kept holes.csv is read if it has none; pool runs made elsewhere")
+    p.set_defaults(func=cmd_compare)
+    p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
+    p.add_argument("file", nargs="+", help="study file(s), e.g. configs/studies/slip.toml; several run as one batch")
+    p.add_argument("--workers", type=option("--workers", WORKERS), help="cases at a time (default: cores / threads)")
+    p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786); default: local")
+    scene_batch_options(p, 1, "table folder (default results/studies)")
+    p.add_argument("--export-batch", metavar="TABLE", help="write a yade-batch parameter table instead of running")
+    p.add_argument("--no-run", action="store_true", help="table and plot of the cases that finished; run nothing")
+    p.set_defaults(func=cmd_study)
     p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs; "
                        "`bench speed-vs-error` runs one clay hole at several resolutions and `bench economies` "
                        "what each scene economy costs in error (analysis/bench.py); "
@@ -345,13 +354,25 @@ def build_parser() -> argparse.ArgumentParser:
                        "(scripts/collider_bench.py)")
     p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "economies", "peer", "collider"])
     p.add_argument("--run", help="collider: a run folder with a checkpoint")
-    p.add_argument("--steps", type=int, default=3000, help="collider: steps per setting (default 3000)")
-    p.add_argument("--workers", type=int,
+    p.add_argument("--steps", type=option("--steps", STEPS), default=3000, help="collider: steps per setting (default 3000)")
+    p.add_argument("--workers", type=option("--workers", WORKERS),
                    help="speed-vs-error, economies: cases at a time (default: cores / threads)")
     scene_batch_options(p, 1, "speed-vs-error, economies: table folder (default results/bench)")
     p.add_argument("--no-run", action="store_true",
                    help="speed-vs-error, economies: tabulate the finished cases only; run nothing")
     p.set_defaults(func=cmd_bench)
+    p = sub.add_parser("pepper", help="duck-beak mechanism (seed 000): goal-attainment design and results/pepper/")
+    p.add_argument("--starts", type=option("--starts", STARTS), default=6, help="optimiser starts: Table 2's initial column + random")
+    p.add_argument("--out", help="output folder (default results/pepper)")
+    p.set_defaults(func=cmd_pepper)
+    p = sub.add_parser("pepper-frame", help="duck-beak mechanism: infer the frame the text omits from its stated results")
+    p.add_argument("--screen", type=option("--screen", SCREEN), default=8000, help="random frames scored per case (the best 12 are fitted)")
+    p.add_argument("--workers", type=option("--workers", WORKERS), default=2, help="cases fitted side by side (processes)")
+    p.add_argument("--out", help="output folder (default results/pepper)")
+    p.set_defaults(func=cmd_pepper_frame)
+    scene("duckbeak", "duckbeak.py", "the duck-beak planter (seed 000) through a ridge bed")
+    p = sub.add_parser("params", help="write configs/README.md: every config key, its range, value, meaning, source")
+    p.set_defaults(func=cmd_params)
     return parser
 
 

@@ -22,15 +22,17 @@ from analysis.config import ROOT, load_criteria, load_disk, load_seedling
 from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
 METRICS = ("L0", "L1", "L2", "h1", "C")
-T975 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262, 10: 2.228,
-        12: 2.179, 15: 2.131, 20: 2.086, 30: 2.042}
+RESIDUAL_LIMIT = 5.0    # % of the tools' work: a run whose energy balance leaves more unexplained is flagged
 
 
 def t975(dof: int) -> float:
-    """Two-sided 95 % Student t quantile (dof >= 1; the next tabulated dof below, 1.96 beyond 30)."""
-    if dof < 1:
-        return math.nan
-    return T975[max(k for k in T975 if k <= dof)] if dof <= 30 else 1.96
+    """Two-sided 95 % Student t quantile (scipy.stats); nan below one degree of freedom.
+
+    >>> round(t975(4), 3)
+    2.776
+    """
+    from scipy.stats import t
+    return float(t.ppf(0.975, dof)) if dof >= 1 else math.nan
 
 
 def field_table(path=ROOT / "configs/field/table3.csv") -> pd.DataFrame:
@@ -145,11 +147,25 @@ def depth_reach(field: pd.DataFrame, holes: pd.DataFrame, bound: float) -> pd.Da
     return out.round(2)
 
 
-def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: dict[str, dict]) -> pd.DataFrame:
+def residual_pct(summaries: list[dict]) -> dict:
+    """Each run's energy residual (the tools' work the balance leaves unexplained: bond energy lost at breakage
+    and integration error), in % of the work, by run id; runs whose summary has no balance are left out."""
+    return {s["id"]: 100 * abs(s["energy_J"]["residual_fraction"]) for s in summaries
+            if s.get("energy_J", {}).get("residual_fraction") is not None}
+
+
+def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: dict[str, dict],
+            residuals: dict | None = None) -> pd.DataFrame:
     """One row per soil and metric (and per pass-criteria reading): field mean and range, simulated mean ±
-    SD and interval, errors, inside-the-range, theory."""
+    SD and interval, errors, inside-the-range, theory, and the largest energy residual of the soil's runs (%
+    of the tools' work, `residuals` by run id; nan where no run's balance is known), flagged above
+    RESIDUAL_LIMIT."""
     rows = []
+    residuals = residuals or {}
     for soil, h in holes.groupby("soil", sort=False):
+        known = [residuals[r] for r in h.run.unique() if r in residuals]
+        energy = {"energy_residual_pct": max(known) if known else math.nan,
+                  "residual_flag": bool(known) and max(known) > RESIDUAL_LIMIT}
         f = field[field.soil == soil]
         fr, fm = f[f.run != "mean"], f[f.run == "mean"].iloc[0]
         for m in METRICS:
@@ -160,7 +176,7 @@ def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: di
                          "rel_error_pct": 100 * (s["sim_mean"] - float(fm[m])) / float(fm[m]),
                          "inside_field_range": bool(lo <= s["sim_mean"] <= hi),
                          "theory_table1": theory["table1"].get(m, math.nan),
-                         "theory_envelope": theory["envelope"].get(m, math.nan)})
+                         "theory_envelope": theory["envelope"].get(m, math.nan), **energy})
         for reading, crit in criteria.items():
             p = pass_probability(h, crit)
             lo, hi = float(fr.pass_percent.min()), float(fr.pass_percent.max())
@@ -171,7 +187,7 @@ def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: di
                          "rel_error_pct": 100 * (p["pass_pct"] - float(fm.pass_percent)) / float(fm.pass_percent),
                          "inside_field_range": bool(lo <= p["pass_pct"] <= hi), "theory_table1": math.nan,
                          "theory_envelope": math.nan,
-                         "passed_holes": p["passed"]})
+                         "passed_holes": p["passed"], **energy})
     return pd.DataFrame(rows)
 
 
@@ -207,6 +223,13 @@ def markdown(table: pd.DataFrame, preset: str, note: str) -> str:
                      f"{r.abs_error:+.1f} {unit} ({r.rel_error_pct:+.0f} %) | {'yes' if r.inside_field_range else 'no'} | {theory} |")
     inside = table[~table.metric.str.startswith("pass")].inside_field_range
     lines += ["", f"Simulated means inside the field range: {int(inside.sum())} of {len(inside)} hole metrics."]
+    if "energy_residual_pct" in table:
+        e = table.groupby("soil", sort=False).energy_residual_pct.first()
+        flagged = [s for s, v in e.items() if v > RESIDUAL_LIMIT]
+        lines += ["", "Energy residual, the largest of each soil's runs (% of the tools' work): "
+                  + ", ".join(f"{s} {v:.1f}" if pd.notna(v) else f"{s} not recorded" for s, v in e.items())
+                  + (f"; above {RESIDUAL_LIMIT:g} %, so flagged: {', '.join(flagged)}." if flagged
+                     else f"; none above {RESIDUAL_LIMIT:g} %.")]
     return "\n".join(lines) + "\n"
 
 

@@ -74,7 +74,7 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
         return 1
     holes = pd.concat(tables, ignore_index=True)
     field = compare.field_table()
-    table = compare.compare(holes, field, compare.theory_values(), criteria)
+    table = compare.compare(holes, field, compare.theory_values(), criteria, compare.residual_pct(summaries))
     table.insert(0, "preset", preset)
     command = (f"./holes compare --preset {preset} --soils {','.join(soils)} --seeds {','.join(map(str, seeds))}"
                + " --no-run" * no_run + " --kept" * kept_runs)

@@ -32,7 +32,7 @@ from analysis.calibration_report import CAL, core_density
 from analysis.config import ROOT, SEED, ConfigError, Field, check_lateral, check_table, load_resolution, load_soil, read_toml
 from analysis.io import atomic_csv, read_table, stamp
 from scripts.bed import TILES, bed_key, check_size, check_tiles
-from scripts.cone import CONE_FIELDS
+from analysis.config import CONE_FIELDS
 
 CHECKS = ("replicate", "width", "ratio", "tiled")
 CASE_FIELDS = {"check": Field(kind=str), "soil": Field(kind=str), "resolution": Field(kind=str),

@@ -59,6 +59,34 @@ def positive(unit="mm", meaning="", kind=float) -> Field:
     return Field(0.0, math.inf, lo_open=True, hi_open=True, kind=kind, unit=unit, meaning=meaning)
 
 
+def option(name: str, field: Field, many: bool = False):
+    """An argparse `type` for the option `name`: its text read as `field.kind` (a comma-separated list of them
+    with `many`) and checked against `field`, so a bad value stops the command line with the option, its
+    allowed range and exit code 2 before anything runs.
+
+    >>> option("--threads", THREADS)("2")
+    2
+    >>> option("--seeds", SEED, many=True)("1,2")
+    [1, 2]
+    """
+    import argparse
+
+    def parse(text: str):
+        values = []
+        for item in (text.split(",") if many else [text]):
+            try:
+                value = field.kind(item) if field.kind is int else float(item)
+            except ValueError:
+                raise argparse.ArgumentTypeError(f"{name} = {text!r}: allowed {'comma-separated ' if many else ''}"
+                                                 f"{'whole ' if field.kind is int else ''}numbers in {field.allowed()}")
+            try:
+                values.append(field.check(name, value))
+            except ConfigError as e:
+                raise argparse.ArgumentTypeError(str(e))
+        return values if many else values[0]
+    return parse
+
+
 def check_table(where: str, table: dict, schema: dict[str, Field], optional: dict | None = None) -> dict:
     """Validate one TOML table against a schema; `optional` gives defaults for keys that may be absent."""
     optional = optional or {}
@@ -96,6 +124,14 @@ def split_sections(path, data: dict, known: set[str]) -> dict:
 
 # --- the hole-forming disk (seed 001 §2.4) ---------------------------------------------------------------
 
+SLIP = Field(0.0, 0.9, meaning="slip rate δ = 1 − r/R (eq 1); the one range of every run, study and disk config")
+THREADS = Field(1, 64, kind=int, meaning="YADE (OpenMP) threads per scene")
+WORKERS = Field(1, 64, kind=int, meaning="scenes or cases at a time")
+
+CONE_FIELDS = {"cone_scale": Field(0.5, 20.0, meaning="cone size / ASABE S313 size"),    # scripts/cone.py
+               "speed": Field(0.001, 2.0, lo_open=True, unit="m/s", meaning="penetration speed")}
+CONE_DEPTH = Field(10.0, 1000.0, unit="mm", meaning="the cone's deepest base depth")
+
 DISK_FIELDS = {
     "R0": positive(meaning="punch mounting-plate radius"),
     "L3": positive(meaning="punch length from the plate rim to the tip"),
@@ -109,7 +145,7 @@ DISK_FIELDS = {
     "speed_kmh_min": positive("km/h", "lowest field forward speed"),
     "speed_kmh_max": positive("km/h", "highest field forward speed"),
     "speed_kmh": positive("km/h", "forward speed used by default"),
-    "slip": Field(0.0, 1.0, hi_open=True, unit="", meaning="slip rate δ = 1 − r/R (eq 1)"),
+    "slip": SLIP,
 }
 
 

@@ -33,6 +33,31 @@ def stamp(command: str) -> str:
             f"({os.cpu_count()} cores), {datetime.date.today().isoformat()}")
 
 
+def yade_version() -> str:
+    """The YADE this process runs (its loaded module), or the one Debian installed."""
+    import sys
+    loaded = sys.modules.get("yade.config")
+    if loaded is not None:
+        return str(loaded.version)
+    try:
+        return subprocess.run(["dpkg-query", "-W", "-f=${Version}", "yade"], capture_output=True, text=True,
+                              timeout=5).stdout.strip() or "not installed"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def provenance(threads: int) -> dict:
+    """Where a run came from, for its config.json and summary.json: the commit whose code the process loaded and
+    whether the checkout had uncommitted changes, the YADE and Python versions, the threads and the machine."""
+    try:
+        dirty = bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
+                                    capture_output=True, text=True, timeout=5).stdout.strip())
+    except (OSError, subprocess.SubprocessError):
+        dirty = None
+    return {"commit": LOADED, "dirty": dirty, "yade": yade_version(), "python": platform.python_version(),
+            "threads": threads, "machine": machine(), "host": platform.node()}
+
+
 def machine() -> str:
     """The machine a benchmark ran on, as its CSVs name it."""
     return f"{platform.machine()} {os.cpu_count()} cores"

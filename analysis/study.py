@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.batch import finished, plan_case, run_all, say, scene_args
+from analysis.compare import RESIDUAL_LIMIT, residual_pct
 from analysis.config import ROOT, ConfigError, load_criteria, read_toml
 from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
@@ -88,22 +89,31 @@ def case_row(case: Case, runs_dir: Path, criteria: dict) -> dict:
                 "particles": summary["particles"], "steps": summary["steps"],
                 "threads": summary["threads"], "slip_out": summary.get("slip_out"),
                 "slip_holes": float(np.mean(summary["slip_holes"])) if summary.get("slip_holes") else np.nan})
+    residual = residual_pct([summary]).get(summary["id"], np.nan)
+    row.update({"energy_residual_pct": residual, "residual_flag": bool(residual > RESIDUAL_LIMIT)})
     return row
 
 
 def write_table(name: str, head: dict, cases: list[Case], rows: dict, runs_dir: Path, out: Path, command: str):
     """results/studies/NAME.csv from every finished case and its plot, written atomically, so a crash or a
-    killed case never leaves a partial row. `rows` keeps each case's row by id: a case is measured once."""
+    killed case never leaves a partial row. `rows` keeps each case's row by id: a case is measured once. A
+    finished case that cannot be measured is said once and kept out (its row None); the others still go in."""
     criteria = load_criteria()
     for c in cases:
         if c.id not in rows and finished(runs_dir, c.id):
-            rows[c.id] = case_row(c, runs_dir, criteria)
-    if not rows:
+            try:
+                rows[c.id] = case_row(c, runs_dir, criteria)
+            except Exception as e:                 # noqa: BLE001 - one bad run must not stop the table
+                rows[c.id] = None
+                say(f"study {name}: FAILED to measure {c.id} ({c.label()}): {e!r}")
+    measured = [rows[c.id] for c in cases if rows.get(c.id) is not None]
+    if not measured:
         return None
-    table = pd.DataFrame([rows[c.id] for c in cases if c.id in rows])
+    table = pd.DataFrame(measured)
     note = stamp(command)
     atomic_csv(table.round(4), out / f"{name}.csv", note)
     plot(table, head, out / f"{name}.png", note)
+    say(f"study {name}: table updated, {len(table)}/{len(cases)} cases")
     return table
 
 
@@ -264,7 +274,8 @@ def run(paths, workers: int = 1, threads: int = 2, scheduler: str | None = None,
             say(f"study {head['name']}: no case has finished in {runs_dir}; no table written")
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
-    return 1 if failures or n_tables < len(studies) else 0
+    unmeasured = sum(r is None for table_rows in rows.values() for r in table_rows.values())
+    return 1 if failures or unmeasured or n_tables < len(studies) else 0
 
 
 def export_batch(path, table_path: Path) -> Path:

@@ -36,8 +36,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (LATERAL, ROOT, SEED, ConfigError, Field, Resolution, check_lateral,  # noqa: E402
-                             load_resolution, load_soil, parse_overrides, soil_with)
+from analysis.config import (LATERAL, ROOT, SEED, THREADS, ConfigError, Field, Resolution, check_lateral,  # noqa: E402
+                             load_resolution, load_soil, option, parse_overrides, soil_with)
 from analysis.io import atomic_write  # noqa: E402
 
 BED_DIR = ROOT / "results/beds"
@@ -299,16 +299,16 @@ def load_meta(path: Path) -> dict:
     return json.loads(Path(path).with_suffix(".json").read_text())
 
 
-def bed_arguments(description: str, default_size: str) -> argparse.ArgumentParser:
+def bed_arguments(description: str, default_size: str, prog: str = "holes bed") -> argparse.ArgumentParser:
     """The options every scene takes to name its bed."""
-    p = argparse.ArgumentParser(description=description)
+    p = argparse.ArgumentParser(prog=prog, description=description)
     p.add_argument("--soil", default="clay")
     p.add_argument("--resolution", default="default")
     p.add_argument("--size", default=default_size, help="bed length,width,depth in mm")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--lateral", default="walls", help="the bed's sides: " + " | ".join(LATERAL))
     p.add_argument("--tiles", type=int, default=1, help="a periodic bed repeated tiles x tiles times (--size: one copy)")
-    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
     p.add_argument("--bed-dir", default=str(BED_DIR), help="where beds are kept")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
     return p

@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import ROOT, ConfigError, Field, load_soil, parse_overrides, soil_with  # noqa: E402
+from analysis.config import CONE_DEPTH, CONE_FIELDS, ROOT, ConfigError, load_soil, parse_overrides, soil_with  # noqa: E402
 from analysis.io import atomic_write  # noqa: E402
 
 S313_BASE_DIAMETER = 0.01283     # m
@@ -35,10 +35,6 @@ APEX_SPHERE_RATIO = 0.2          # blunt-tip sphere radius / cone base radius
 CI_DEPTH = 0.150                 # m: the field's cone index is the mean over 0-150 mm
 DAMAGE_RING = 0.010             # m: radial bins of the damage map
 DAMAGE_BANDS = (0.0, 0.05, 0.10, 0.15, 0.30)   # m below the surface: depth bands of the damage map
-CONE_FIELDS = {"cone_scale": Field(0.5, 20.0, meaning="cone size / ASABE S313 size"),
-               "speed": Field(0.001, 2.0, lo_open=True, unit="m/s", meaning="penetration speed")}
-
-
 def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 0.3, cohesion: float | None = None,
         threads: int = 2, depth: float = CI_DEPTH, quiet: bool = False, out_dir: Path | None = None,
         overrides: dict | None = None, damage: bool = False) -> dict:
@@ -175,7 +171,7 @@ def damage_map(first: set, now: set, pos, axis: tuple, surface: float, period: t
 
 def main(argv=None) -> int:
     from scripts import bed
-    p = bed.bed_arguments(__doc__.splitlines()[0], "200,200,260")
+    p = bed.bed_arguments(__doc__.splitlines()[0], "200,200,260", "holes cone")
     p.add_argument("--cone-scale", type=float, default=3.0)
     p.add_argument("--speed", type=float, default=0.3, help="m/s")
     p.add_argument("--cohesion", type=float, help="Pa; overrides the soil config's normal and shear cohesion")
@@ -184,6 +180,9 @@ def main(argv=None) -> int:
     p.add_argument("--damage", action="store_true", help="also map the bonds the cone broke (<stem>-damage.csv)")
     a = p.parse_args(argv)
     try:
+        for key, value in (("cone_scale", a.cone_scale), ("speed", a.speed)):      # before the bed is settled
+            CONE_FIELDS[key].check(f"cone.{key}", value)
+        CONE_DEPTH.check("cone.depth", a.depth)
         summary = run(bed.bed_from_args(a), a.soil, a.cone_scale, a.speed, a.cohesion, a.threads, a.depth / 1000,
                       out_dir=Path(a.out) if a.out else None, overrides=parse_overrides(a.set), damage=a.damage)
     except (ConfigError, ValueError) as e:

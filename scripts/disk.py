@@ -43,9 +43,9 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (ROOT, SEED, ConfigError, Field, as_dict, load_disk, load_preset, load_resolution,  # noqa: E402
-                             load_sleeve, load_soil, parse_overrides, preset_with, soil_with, tool_with)
-from analysis.io import atomic_write  # noqa: E402
+from analysis.config import (ROOT, SEED, SLIP, THREADS, ConfigError, Field, as_dict, load_disk, load_preset, load_resolution,  # noqa: E402
+                             load_sleeve, load_soil, option, parse_overrides, preset_with, soil_with, tool_with)
+from analysis.io import atomic_write, provenance  # noqa: E402
 from analysis.kinematics import TIP_SPHERE_RATIO, layout, slip_between_holes  # noqa: E402
 from scripts.bed import check_graded  # noqa: E402
 
@@ -67,7 +67,7 @@ WINDOW_STEP = 5.0           # mm of the axis's travel between moves of the awake
 RESTLESS = 0.02             # × the tip speed: a grain behind the window sleeps only when slower than this
 GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
 ESCAPE, ESCAPE_ABOVE = 0.02, 0.3   # m: a grain this far past the walls or floor, or above the surface, has left
-RUN_FIELDS = {"slip": Field(0.0, 0.9, meaning="slip rate δ"),
+RUN_FIELDS = {"slip": SLIP,
               "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
               "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)"),
               "weight": Field(1.0, 5000.0, unit="N", meaning="load the disk carries (free mode)"),
@@ -200,7 +200,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                             quiet=quiet, bed_dir=bed_dir or bedmod.BED_DIR,
                             overrides={k: params["soil"][k] for k in soil.settling_key()}, lateral=preset["lateral"])
     meta = bedmod.load_meta(bed_path)
-    out = open_run_folder(out_root, params)
+    out = open_run_folder(out_root, params, threads)
     saved = out / CHECKPOINT
     if not resume:
         drop_checkpoint(out)
@@ -462,7 +462,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         (out / "vtk").mkdir(exist_ok=True)
         exp.exportSpheres(ids=list(grain_ids), what=dict(radius="b.shape.radius", disp="b.state.displ()"))
         exp.exportFacets(ids=[i for ids in punch_ids + plate_ids for i in ids if O.bodies[i].shape.__class__.__name__ == "Facet"])
-    summary = {"id": params["id"], "soil": soil.name, "preset": preset["name"], "mode": params["mode"],
+    summary = {"id": params["id"], "provenance": provenance(threads), "soil": soil.name, "preset": preset["name"],
+               "mode": params["mode"],
                "bed": meta["key"], "particles": n_particles, "steps": int(O.iter), "dt": O.dt, "wall_s": wall,
                "cpu_s": cpu, "threads": threads, "particle_steps_per_s": n_particles * O.iter / wall,
                "travel_mm": v * O.time * 1000, "sim_time_s": O.time, "z_surface_m": z_surface,
@@ -505,12 +506,14 @@ def drop_checkpoint(out: Path):
         old.unlink()
 
 
-def open_run_folder(out_root: Path | None, params: dict) -> Path:
-    """results/runs/<id>/ with the run's config.json, and no summary.json until the run has finished."""
+def open_run_folder(out_root: Path | None, params: dict, threads: int) -> Path:
+    """results/runs/<id>/ with the run's config.json (its parameters and, under "provenance", where it was made:
+    analysis/io.py provenance), and no summary.json until the run has finished."""
     out = (out_root or ROOT / "results/runs") / params["id"]
     out.mkdir(parents=True, exist_ok=True)
     (out / "summary.json").unlink(missing_ok=True)
-    atomic_write(out / "config.json", json.dumps(params, indent=1))
+    params = {k: v for k, v in params.items() if k != "provenance"}       # a config.json read back (benchmarks)
+    atomic_write(out / "config.json", json.dumps({**params, "provenance": provenance(threads)}, indent=1))
     return out
 
 
@@ -673,7 +676,7 @@ def energy_balance(start: dict, end: dict) -> dict:
 def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     """The command line of one run; `plan_from_argv` and `main` read it."""
     from scripts import bed
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], exit_on_error=exit_on_error)
+    p = argparse.ArgumentParser(prog="holes run", description=__doc__.splitlines()[0], exit_on_error=exit_on_error)
     p.add_argument("--soil", default="clay")
     p.add_argument("--preset", default="quick")
     p.add_argument("--disk", default="configs/disk.toml")
@@ -693,7 +696,7 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
                    help="mm: only the soil from BEHIND behind the tools' reach to AHEAD ahead of it moves; the rest "
                    "sleeps (default: all of it moves)")
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
     p.add_argument("--vtk", action="store_true", help="also write VTK files for ParaView")
     p.add_argument("--out", help="runs folder (default results/runs)")
     p.add_argument("--bed-dir", default=str(bed.BED_DIR))

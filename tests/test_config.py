@@ -26,7 +26,7 @@ def test_seed_configs_load(disk):
     ("R0", 0.0, r"disk\.R0 = 0\.0 is out of range: allowed \(0, inf\) mm"),
     ("D", -5.0, r"disk\.D = -5\.0 is out of range"),
     ("L3", -1.0, r"disk\.L3"),
-    ("slip", 1.0, r"disk\.slip = 1\.0 is out of range: allowed \[0, 1\)"),
+    ("slip", 1.0, r"disk\.slip = 1\.0 is out of range: allowed \[0, 0\.9\]"),
     ("slip", -0.1, r"disk\.slip"),
     ("N", 0, r"disk\.N = 0 is out of range: allowed \[1, 360\]"),
     ("N", 2.5, r"disk\.N = 2\.5: must be a whole number"),

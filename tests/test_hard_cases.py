@@ -1,6 +1,9 @@
-"""Hard cases (issue 7): each scene either stays stable (no NaN, no grain out of the box, kinetic energy
-bounded, finite hole metrics and energy balance) or stops with a diagnostic naming the cause. One punch
-passage on the test strip, one thread per scene, two scenes at a time."""
+"""Hard cases: each scene has a pinned outcome. All eight finish stable on the machines measured (results/bench/
+README.md's table, and a fresh machine's suite run): every energy term finite, the energy residual under
+RESIDUAL_BOUND, and the hole found with finite L0, L1, L2 (slip 0.5 excepted: its punch drags a trench across
+the strip, found on one machine and not on another, so only its consistency is checked). A case that the
+stability guard stops instead fails here with the guard's named cause in the message. One punch passage on the
+test strip, one thread per scene, two scenes at a time."""
 import json
 import math
 from concurrent.futures import ThreadPoolExecutor
@@ -8,11 +11,15 @@ from concurrent.futures import ThreadPoolExecutor
 import pytest
 
 from analysis import measure
+from analysis.compare import RESIDUAL_LIMIT
 from analysis.config import load_soil
 from tests.test_disk import run_scene
 
-CAUSES = ("non-finite", "left the box", "moves at", "kinetic energy")
 CLAY = load_soil("clay")
+# % of the tools' work: the largest measured is clay bonds × 10 (3.9 % and 3.95 % on two machines; bond energy
+# lost at breakage grows with the bonds); the others 2.2 % or less. The comparison's flag is at the same 5 %.
+RESIDUAL_BOUND = RESIDUAL_LIMIT
+HOLE_FOUND = {"slip-0.5": None}        # None: not pinned (see the module's docstring); every other case: found
 
 
 CASES = {                      # run in this order, two at a time: the strips other cases share are settled first
@@ -46,22 +53,21 @@ def hard_runs(scene_dirs):
     return done
 
 
+@pytest.mark.scene
 @pytest.mark.parametrize("name", list(CASES))
-def test_hard_case_is_stable_or_stops_with_a_named_cause(scene_dirs, hard_runs, name):
-    """Stable (summary with finite energy terms, kinetic energy bounded by the guard, and a hole either found
-    with finite metrics or reported not found) or stopped by the stability guard with a named cause."""
+def test_hard_case_finishes_stable_with_its_hole(scene_dirs, hard_runs, name):
     r = hard_runs[name]
-    if r.returncode == 3:                                  # the stability guard stopped it
-        assert "run stopped:" in r.stderr and any(c in r.stderr for c in CAUSES), r.stderr[-2000:]
-        return
-    assert r.returncode == 0, f"disk.py exited {r.returncode}:\n{r.stderr[-3000:]}"
+    assert r.returncode == 0, f"disk.py exited {r.returncode} (3: the stability guard stopped it):\n{r.stderr[-3000:]}"
     summary = json.loads(r.stdout.strip().splitlines()[-1])
-    assert summary["vmax_m_s"] < 20 * summary["tip_speed_m_s"]
-    assert all(math.isfinite(v) for v in summary["energy_J"].values())
-    holes = measure.run(scene_dirs[0] / summary["id"])
+    energy = summary["energy_J"]
+    assert all(math.isfinite(v) for v in energy.values()), energy
+    assert energy["work_tool"] > 1.0 and 100 * abs(energy["residual_fraction"]) < RESIDUAL_BOUND, energy
+    holes = measure.run(scene_dirs[0] / summary["id"], pictures=False)
     assert len(holes) == 1
     hole = holes.iloc[0]
     assert math.isfinite(hole.h1), hole.to_dict()
-    # a hole found where the punch entered has finite measures; one not found (the named outcome when the
-    # strip is churned past recognition, metrology.measure_hole) has none, never plausible numbers
+    # a hole found where the punch entered has finite measures; one not found has none, never plausible numbers
     assert all(math.isfinite(hole[m]) == bool(hole.found) for m in ("L0", "L1", "L2")), hole.to_dict()
+    expected = HOLE_FOUND.get(name, True)
+    if expected is not None:
+        assert bool(hole.found) == expected, hole.to_dict()

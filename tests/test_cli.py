@@ -1,0 +1,55 @@
+"""Bad input on the command line: refused with the option, its allowed range and exit code 2, before any scene
+starts and without writing anything (in-process where the command line is parsed in-process)."""
+import subprocess
+import sys
+
+import pytest
+
+from analysis import cli
+from analysis.config import ROOT, ConfigError
+
+
+@pytest.mark.parametrize("argv, field", [
+    (["study", "configs/studies/slip.toml", "--threads", "0"], "--threads"),
+    (["compare", "--threads", "0"], "--threads"),
+    (["compare", "--parallel", "0"], "--parallel"),
+    (["compare", "--seeds", "1,x"], "--seeds"),
+    (["compare", "--seeds", "-1"], "--seeds"),
+    (["calibrate", "--soil", "clay", "--seeds", "1,abc"], "--seeds"),
+    (["calibrate", "--soil", "clay", "--cohesion-range", "abc"], "--cohesion-range"),
+    (["calibrate", "--soil", "clay", "--cohesion-range", "70000,30000"], "--cohesion-range"),
+    (["calibrate", "--soil", "clay", "--speed", "-1"], "--speed"),
+    (["cone-checks", "--workers", "0"], "--workers"),
+    (["report", "/nonexistent"], "/nonexistent"),
+    (["measure", "/nonexistent"], "/nonexistent"),
+    (["rings", "/nonexistent"], "/nonexistent"),
+    (["pepper", "--starts", "0"], "--starts"),
+    (["pepper-frame", "--screen", "x"], "--screen"),
+    (["bench", "speed-vs-error", "--threads", "0"], "--threads"),
+])
+def test_bad_option_exits_2_naming_it_and_its_range(argv, field, tmp_path, capsys):
+    with pytest.raises(SystemExit) as e:
+        cli.main([*argv, *(["--runs-dir", str(tmp_path / "runs")] if argv[0] == "compare" else [])])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and field in err and "allowed" in err, err
+    assert "Traceback" not in err and not (tmp_path / "runs").exists()
+
+
+def test_a_scene_refuses_zero_threads_before_it_plans():
+    from scripts import disk
+    with pytest.raises(ConfigError, match=r"--threads = 0 is out of range: allowed \[1, 64\]"):
+        disk.plan_from_argv(["--soil", "clay", "--preset", "test", "--threads", "0"])
+
+
+@pytest.mark.parametrize("option, value", [("--speed", "-1"), ("--cone-scale", "0"), ("--depth", "0")])
+def test_the_cone_checks_its_own_numbers_before_settling_a_bed(tmp_path, option, value):
+    r = subprocess.run([sys.executable, str(ROOT / "scripts/cone.py"), "--soil", "clay", "--bed-dir", str(tmp_path),
+                        option, value], capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert r.returncode == 2 and "allowed" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert not any(tmp_path.iterdir())                  # no bed was settled
+
+
+def test_one_slip_range_for_the_disk_config_and_a_run():
+    from analysis.config import DISK_FIELDS
+    from scripts.disk import RUN_FIELDS
+    assert DISK_FIELDS["slip"] is RUN_FIELDS["slip"]
