@@ -10,6 +10,8 @@ YADE_PY = "/usr/lib/x86_64-linux-gnu/yade-double/py"
 
 
 def boot(threads: int = 1):
+    if os.environ.get("HOLES_FAST_TIER"):
+        raise RuntimeError("a test of the fast tier started YADE: mark it @pytest.mark.scene (tests/conftest.py)")
     os.environ["OMP_NUM_THREADS"] = str(threads)
     if YADE_PY not in sys.path:
         sys.path.insert(1, YADE_PY)

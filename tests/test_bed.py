@@ -31,6 +31,7 @@ def tiny_bed(tmp_path_factory):
     return beds, meta
 
 
+@pytest.mark.scene
 def test_tiny_bed_settles_without_losing_particles(tiny_bed):
     beds, meta = tiny_bed
     assert meta["particles"] <= 3000
@@ -44,6 +45,7 @@ def test_tiny_bed_settles_without_losing_particles(tiny_bed):
     assert meta["surface_z"] > D - 2 * meta["radius"]       # and full to the top
 
 
+@pytest.mark.scene
 def test_tiny_bed_reaches_target_density(tiny_bed):
     """Bulk density measured independently: grain mass inside a central column over its volume."""
     beds, meta = tiny_bed
@@ -60,6 +62,7 @@ def test_tiny_bed_reaches_target_density(tiny_bed):
     assert 0.3 < meta["porosity"] < 0.65
 
 
+@pytest.mark.scene
 def test_bed_is_cached_by_its_key(tiny_bed):
     beds, meta = tiny_bed
     again = scene("bed.py", "--soil", "clay", "--size", "120,120,100", "--bed-dir", str(beds), *TINY)
@@ -74,6 +77,7 @@ def graded_bed(tmp_path_factory):
     return beds, meta
 
 
+@pytest.mark.scene
 def test_graded_bed_keeps_its_fine_grains_where_the_punches_work(graded_bed):
     """A graded bed (configs/resolutions.toml: tiny_graded) loses no grain, settles full and level, puts its
     fine grains in the fine zone and its coarse ones round and under it (a few fine ones may sift into the
@@ -130,6 +134,7 @@ def periodic_bed(tmp_path_factory):
     return beds, meta
 
 
+@pytest.mark.scene
 def test_periodic_bed_has_no_side_walls(tiny_bed, periodic_bed):
     """The walled bed is loose along its walls (grains cannot pack against a flat wall); the periodic bed is
     as dense at its cell's sides as inside, and keeps every grain in the cell."""
@@ -158,6 +163,7 @@ def contacts(pos, rad, cell):
     return np.sort(overlap[overlap > 0])
 
 
+@pytest.mark.scene
 @pytest.mark.parametrize("tiles", [2, 3])
 def test_tiled_bed_is_its_packing_repeated_round_the_same_centre(periodic_bed, tiles):
     """A tiled bed holds every contact of its periodic source n² times with the same overlap (so it is settled
@@ -202,6 +208,7 @@ def cone(tmp_path, beds, cohesion):
     return summary, profile
 
 
+@pytest.mark.scene
 def test_cone_resistance_grows_with_depth_and_cohesion(test_bed, tmp_path):
     # the two pushes side by side, one thread each: 2600 grains gain nothing from a second thread
     with ThreadPoolExecutor(max_workers=2) as pool:

@@ -20,6 +20,7 @@ def compare(*args, dirs, out):
                           capture_output=True, text=True, timeout=1500, cwd=ROOT)
 
 
+@pytest.mark.scene
 def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_scenes):
     # side_scenes: test_disk's one-thread scenes start now, beside this one-thread clay scene
     r = compare("--soils", "clay", "--threads", "1", dirs=scene_dirs, out=tmp_path)

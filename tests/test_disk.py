@@ -58,6 +58,7 @@ def two_holes(scene_dirs):
     return summary, scene_dirs[0] / summary["id"]
 
 
+@pytest.mark.scene
 def test_tip_reaches_the_configured_depth_and_sleeves_work(two_holes):
     summary, run = two_holes
     disk = load_disk("configs/disk.toml")
@@ -71,6 +72,7 @@ def test_tip_reaches_the_configured_depth_and_sleeves_work(two_holes):
     assert ts["punch_fz_n"].max() > 1.0                    # the soil pushes the punch up
 
 
+@pytest.mark.scene
 def test_spacing_is_2piR_over_N_and_no_grain_is_lost(two_holes):
     summary, run = two_holes
     state = np.load(run / "state.npz")
@@ -86,6 +88,7 @@ def test_spacing_is_2piR_over_N_and_no_grain_is_lost(two_holes):
     assert abs((x[1] - x[0]) - expected) < 2 * rad.mean()
 
 
+@pytest.mark.scene
 def test_free_rolling_at_low_resistance_rolls_without_slip(side_scenes):
     """Without bonds the free disk turns nearly at the rolling rate: the slip its hole spacing gives (eq 1) is
     small."""
@@ -93,6 +96,7 @@ def test_free_rolling_at_low_resistance_rolls_without_slip(side_scenes):
     assert len(summary["slip_holes"]) == 1 and abs(summary["slip_holes"][0]) < 0.1
 
 
+@pytest.mark.scene
 def test_weight_sets_the_penetration(side_scenes):
     """Free rolling with sinking under W (deeper strips, one hole): a light disk rides up on its punches, so
     its tip goes less deep than the prescribed 70 mm; a heavy one sinks until its tips reach the strip's floor,
@@ -116,6 +120,7 @@ def test_bad_run_input_names_the_field(tmp_path, args, field):
     assert not (tmp_path / "beds").exists()            # rejected before any scene was built
 
 
+@pytest.mark.scene
 def test_energy_balance_closes(two_holes):
     """The tools' work on the soil = Δkinetic + Δelastic + Δpotential + booked dissipation + residual; the
     residual (bond energy lost at breakage, integration error) stays within 3 % of the work."""
@@ -126,6 +131,7 @@ def test_energy_balance_closes(two_holes):
     assert abs(e["residual_fraction"]) < 0.03, e
 
 
+@pytest.mark.scene
 def test_periodic_strip_forms_a_measured_hole_without_side_walls(side_scenes, scene_dirs):
     """The strip periodic across the travel (the paper preset's sides): the punch reaches its
     depth, the sleeve works, no grain is lost, positions come back wrapped into the cell's width, and the hole
@@ -146,6 +152,7 @@ def test_periodic_strip_forms_a_measured_hole_without_side_walls(side_scenes, sc
     assert hole.found and all(np.isfinite(hole[m]) for m in ("L0", "L1", "L2", "h1")), hole.to_dict()
 
 
+@pytest.mark.scene
 def test_a_graded_bed_forms_a_hole_measured_at_its_fine_grains(side_scenes, scene_dirs):
     """A graded strip (configs/resolutions.toml: tiny_graded): the tip reaches the configured depth, no grain is
     lost, the balance closes, and the hole is found and measured with a probe of the fine grains' radius, from
@@ -169,6 +176,7 @@ def test_a_graded_bed_forms_a_hole_measured_at_its_fine_grains(side_scenes, scen
     assert z_surface == pytest.approx(1000 * summary["z_surface_m"], abs=1000 * g["radius"])
 
 
+@pytest.mark.scene
 def test_a_sleeping_far_field_keeps_the_work_of_forming_the_holes(side_scenes, scene_dirs):
     """--awake 60,120: only the soil within 60 mm behind and 120 mm ahead of the tools' reach moves. A good
     part of the strip sleeps at any time, yet every hole is formed to depth and measured, no grain is lost, the
@@ -195,6 +203,7 @@ def test_a_sleeping_far_field_keeps_the_work_of_forming_the_holes(side_scenes, s
 COARSE_ONE_HOLE = ["--soil", "clay", "--holes", "1", "--lead-in", "0", "--threads", "1", "--resolution", "coarse"]
 
 
+@pytest.mark.scene
 def test_a_killed_run_goes_on_from_its_checkpoint(scene_dirs, tmp_path):
     """A run killed after a checkpoint, started again, resumes there and finishes the same run: the same steps,
     the records before the checkpoint as the uninterrupted run's (test_hard_cases' coarsest case), and the

@@ -44,6 +44,7 @@ def run_duckbeak(dirs):
                           capture_output=True, text=True, timeout=1200, cwd=ROOT)
 
 
+@pytest.mark.scene
 def test_the_duckbeak_forms_a_measured_hole(side_scenes, scene_dirs):
     """The closed beak reaches the loop's depth and leaves a hole about as wide as itself."""
     from analysis.measure import measure_run
