@@ -46,7 +46,7 @@ def scene_args(fields: dict) -> list[str]:
 
 def plan_case(fields: dict) -> dict:
     """Check a case completely, as scripts/disk.py would (no YADE), and return its run parameters."""
-    from scripts.disk import plan_from_argv
+    from analysis.run_spec import plan_from_argv
     return plan_from_argv(scene_args(fields))
 
 

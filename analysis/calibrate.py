@@ -97,7 +97,7 @@ def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesio
     Returns its summary; a run of the same bed, cone, speed and bond strength already in results/cone/
     (`stored_cone`) is reused."""
     from analysis.config import load_resolution
-    from scripts.bed import bed_key, check_size
+    from analysis.bed_spec import bed_key, check_size
     bed = bed_key(load_soil(soil), load_resolution(resolution), check_size([float(v) / 1000 for v in size.split(",")]),
                   seed, lateral, tiles)
     if found := stored_cone(bed, cone_scale, speed, cohesion):

@@ -32,7 +32,7 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
         no_run: bool = False, kept_runs: bool = False, scheduler: str | None = None) -> int:
     """Run what is missing (unless `no_run`: then only the finished runs are measured; with `kept_runs`, runs
     kept beside the table are not missing; on a Dask cluster's workers with `scheduler`), measure, compare."""
-    from scripts.bed import BED_DIR
+    from analysis.bed_spec import BED_DIR
     runs_dir = Path(runs_dir or ROOT / "results/runs")
     bed_dir = Path(bed_dir or BED_DIR)
     out = Path(out or ROOT / "results")

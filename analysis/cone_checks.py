@@ -31,7 +31,7 @@ from analysis.calibrate import cone_index, cone_run, same_cohesion, stored_cone
 from analysis.calibration_report import CAL, core_density
 from analysis.config import ROOT, SEED, ConfigError, Field, check_lateral, check_table, load_resolution, load_soil, read_toml
 from analysis.io import atomic_csv, read_table, stamp
-from scripts.bed import TILES, bed_key, check_size, check_tiles
+from analysis.bed_spec import TILES, bed_key, check_size, check_tiles
 from analysis.config import CONE_FIELDS
 
 CHECKS = ("replicate", "width", "ratio", "tiled")

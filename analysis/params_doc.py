@@ -45,7 +45,7 @@ def table(schema: dict[str, Field], columns: dict[str, dict], sources: dict | No
 def run_fields() -> list[str]:
     """What a run can change (scripts/disk.py's options) and which of them a study can vary (analysis/batch.py)."""
     from analysis.batch import PLAIN
-    from scripts.disk import MODES, RUN_FIELDS, arguments
+    from analysis.run_spec import MODES, RUN_FIELDS, arguments
     schema = {**PRESET_FIELDS, **RUN_FIELDS,
               "soil": Field(kind=str, meaning="the soil: " + " | ".join(SOILS)),
               "preset": Field(kind=str, meaning="a section of presets.toml"),

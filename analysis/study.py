@@ -239,7 +239,7 @@ def run(paths, workers: int = 1, threads: int = 2, scheduler: str | None = None,
         out=None, no_run: bool = False) -> int:
     """Run one or more studies as one batch (a case two studies share, such as the baseline, runs once), each
     study's table rewritten as its cases finish; with no_run, only tabulate the cases that finished."""
-    from scripts.bed import BED_DIR
+    from analysis.bed_spec import BED_DIR
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
     studies = [(path, *load_study(path)) for path in paths]
     names = [head["name"] for _, head, _ in studies]

@@ -28,7 +28,6 @@ Beds are keyed by soil (its settling parameters), resolution, size, sides and se
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import math
 import sys
@@ -36,76 +35,16 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (LATERAL, ROOT, SEED, THREADS, ConfigError, Field, Resolution, check_lateral,  # noqa: E402
+from analysis.config import (LATERAL, SEED, THREADS, ConfigError, Resolution, check_lateral,  # noqa: E402
                              load_resolution, load_soil, option, parse_overrides, soil_with)
+from analysis.bed_spec import (BED_DIR, bed_key, check_graded, check_size, check_tiles,  # noqa: E402
+                               mean_volume, zones)
 from analysis.io import atomic_write  # noqa: E402
 
-BED_DIR = ROOT / "results/beds"
 SETTLE_UNBALANCED = 0.01     # settled when mean unbalanced force / mean contact force falls below this
 SETTLE_MIN_TIME = 0.05       # s of deposition before the criterion is checked
 SETTLE_MAX_TIME = 3.0        # s; a bed that does not settle by then is an error, not a result
 CLOUD_FRACTION = 0.30        # solid fraction of the initial random cloud
-SIZE_FIELDS = {"length": Field(0.02, 3.0, unit="m"), "width": Field(0.02, 1.0, unit="m"), "depth": Field(0.02, 0.5, unit="m")}
-
-
-def bed_key(soil, res, size, seed: int, lateral: str = "walls", tiles: int = 1) -> str:
-    """The bed's cache name; a periodic bed's carries "-per" (walled beds keep the keys they always had), a tiled
-    one's "-t<n>" and the tiled cell's size."""
-    params = {"soil": soil.name, **soil.settling_key(), "young": soil.young, "radius": res.radius,
-              "spread": res.spread, "size_m": [round(s, 6) for s in size], "seed": seed, "version": 1}
-    if res.graded:                     # beds of one size keep the keys they always had
-        params["graded"] = [res.coarse_radius, res.fine_width, res.fine_depth]
-    if lateral == "periodic":
-        params["lateral"] = lateral
-        params["version"] = 2          # the periodic cloud (version 1 left a loose column along the cell's sides)
-    if tiles > 1:
-        params["tiles"] = tiles
-    digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
-    L, W, D = round(1000 * size[0] * tiles), round(1000 * size[1] * tiles), round(1000 * size[2])
-    sides = ("-per" if lateral == "periodic" else "") + (f"-t{tiles}" if tiles > 1 else "")
-    return f"{soil.name}-{res.name}-{L}x{W}x{D}{sides}-s{seed}-{digest}"
-
-
-def mean_volume(r: float, spread: float) -> float:
-    """E[4/3 π r³] of radii uniform in r(1 ± spread)."""
-    return 4 / 3 * math.pi * r ** 3 * (1 + spread ** 2)
-
-
-def zones(res, L: float, W: float, D: float) -> list:
-    """The bed's zones as (lower corner, upper corner, mean radius), m, in the settled bed's frame: a graded bed's
-    fine zone, then the coarse boxes under and beside it (Resolution). The top ones reach 1.12 D: the levelling's
-    margin."""
-    (y0, y1), zf, top = res.fine_band(W), D - res.fine_depth, 1.12 * D
-    return [((0, y0, zf), (L, y1, top), res.radius), ((0, 0, 0), (L, W, zf), res.coarse_radius),
-            ((0, 0, zf), (L, y0, top), res.coarse_radius), ((0, y1, zf), (L, W, top), res.coarse_radius)]
-
-
-def check_graded(res, size, lateral: str):
-    """A graded bed's fine zone fits inside the bed, with room for a coarse grain beside and under it; walled only."""
-    if not res.graded:
-        return
-    L, W, D = size
-    if lateral != "walls":
-        raise ConfigError(f"resolution = {res.name!r} is graded: allowed with lateral = 'walls' only (its coarse "
-                          "sides would be periodic images of each other)")
-    room = 2 * res.coarse_radius * (1 + res.spread)
-    if res.fine_width > W - 2 * room or res.fine_depth > D - room:
-        raise ConfigError(f"resolution {res.name!r}: fine_width = {1000 * res.fine_width:g} mm and fine_depth = "
-                          f"{1000 * res.fine_depth:g} mm are out of range for a {1000 * W:g} x {1000 * D:g} mm section: "
-                          f"allowed up to {1000 * (W - 2 * room):g} and {1000 * (D - room):g} mm (a coarse grain beside "
-                          "and under the fine zone)")
-
-
-TILES = Field(1, 4, kind=int, meaning="copies of the periodic bed along its length and its width")
-
-
-def check_tiles(tiles: int, lateral: str, where: str = "bed.tiles") -> int:
-    """A tiled bed repeats a periodic cell; a walled bed's copies would have walls inside the bed."""
-    TILES.check(where, tiles)
-    if tiles > 1 and lateral != "periodic":
-        raise ConfigError(f"{where} = {tiles}: only a periodic bed (lateral = \"periodic\") can be tiled; allowed 1 "
-                          f"for lateral = {lateral!r}")
-    return tiles
 
 
 def tile(source: Path, tiles: int, out: Path) -> Path:
@@ -135,12 +74,6 @@ def save(out: Path, pos, rad, meta: dict) -> Path:
     tmp.replace(out)
     atomic_write(out.with_suffix(".json"), json.dumps(meta, indent=1))
     return out
-
-
-def check_size(size) -> tuple:
-    if len(size) != 3:
-        raise ConfigError(f"size = {size!r}: give length,width,depth in mm")
-    return tuple(SIZE_FIELDS[k].check(f"bed.{k}", v) for k, v in zip(SIZE_FIELDS, size))
 
 
 def settle(O, utils, max_time: float, label: str, log):

@@ -33,9 +33,7 @@ checkpoint is removed when it finishes.
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import hashlib
 import json
 import math
 import sys
@@ -43,16 +41,14 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (ROOT, SEED, SLIP, THREADS, ConfigError, Field, as_dict, load_disk, load_preset, load_resolution,  # noqa: E402
-                             load_sleeve, load_soil, option, parse_overrides, preset_with, soil_with, tool_with)
+from analysis.config import ROOT, ConfigError, load_soil  # noqa: E402
 from analysis.io import atomic_write, provenance  # noqa: E402
-from analysis.kinematics import TIP_SPHERE_RATIO, layout, slip_between_holes  # noqa: E402
-from scripts.bed import check_graded  # noqa: E402
+from analysis.kinematics import TIP_SPHERE_RATIO, slip_between_holes  # noqa: E402
+from analysis.run_spec import CHECKPOINT_EVERY, arguments, plan_args  # noqa: E402
 
 SEGMENTS = 16               # facets round a punch or a sleeve
 SLEEVE_CLEARANCE = 1.0      # mm between the punch and the plate's bore
 RECORD_DT = 5e-4            # s of simulated time between records
-CHECKPOINT_EVERY = 600.0    # s of wall time between checkpoints of an unfinished run (0: none)
 CHECKPOINT = "checkpoint.json"   # the run's state, naming the scene file it goes with
 GUARD_EVERY = 200           # steps between stability checks
 # contact detection: every grain's box keeps a 0.5 mm margin and the collider runs when one has moved past it. YADE's
@@ -67,81 +63,6 @@ WINDOW_STEP = 5.0           # mm of the axis's travel between moves of the awake
 RESTLESS = 0.02             # × the tip speed: a grain behind the window sleeps only when slower than this
 GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
 ESCAPE, ESCAPE_ABOVE = 0.02, 0.3   # m: a grain this far past the walls or floor, or above the surface, has left
-RUN_FIELDS = {"slip": SLIP,
-              "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
-              "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)"),
-              "weight": Field(1.0, 5000.0, unit="N", meaning="load the disk carries (free mode)"),
-              "awake": Field(0.0, 1000.0, unit="mm", meaning="awake soil behind / ahead of the tools' reach")}
-MODES = ("prescribed", "free")
-
-
-def run_id(params: dict) -> str:
-    digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
-    return f"{params['soil']['name']}-{params['preset']['name']}-{params['mode']}-{digest}"
-
-
-def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml", slip: float | None = None,
-         speed_kmh: float | None = None, holes: int | None = None, seed: int = 1, mode: str = "prescribed",
-         width: float | None = None, depth: float | None = None, overrides: dict | None = None,
-         disk_inertia: float = 0.05, lead_in: int | None = None, tool: dict | None = None,
-         resolution: str | None = None, dt_safety: float | None = None, weight: float | None = None,
-         lateral: str | None = None, awake: tuple | list | None = None) -> dict:
-    """Every parameter of the run, checked, before YADE starts."""
-    if mode not in MODES:
-        raise ConfigError(f"mode = {mode!r}: allowed {', '.join(MODES)}")
-    seed = SEED.check("run.seed", seed)
-    disk = load_disk(disk_path)
-    disk, sleeve = tool_with(disk, load_sleeve(disk_path, disk), tool or {})
-    preset = load_preset(preset_name)
-    preset = preset_with(preset, {k: v for k, v in (("width", width), ("depth", depth), ("holes", holes),
-                                                     ("lead_in", lead_in), ("resolution", resolution),
-                                                     ("dt_safety", dt_safety), ("lateral", lateral)) if v is not None})
-    soil = soil_with(load_soil(soil_name), overrides or {})
-    slip = RUN_FIELDS["slip"].check("run.slip", disk.slip if slip is None else slip)
-    speed_kmh = RUN_FIELDS["speed_kmh"].check("run.speed_kmh", disk.speed_kmh if speed_kmh is None else speed_kmh)
-    RUN_FIELDS["disk_inertia"].check("run.disk_inertia", disk_inertia)
-    if weight is not None:
-        if mode != "free":
-            raise ConfigError(f"run.weight = {weight:g} N needs mode = 'free': allowed only where the soil drives "
-                              "the disk")
-        RUN_FIELDS["weight"].check("run.weight", weight)
-    if awake is not None:
-        if len(awake) != 2:
-            raise ConfigError(f"run.awake = {awake!r}: allowed two lengths BEHIND,AHEAD in mm")
-        awake = [RUN_FIELDS["awake"].check(f"run.awake.{side}", float(x))
-                 for side, x in zip(("behind", "ahead"), awake)]
-    if preset.depth <= disk.penetration + 20:
-        raise ConfigError(f"preset.depth = {preset.depth:g} is out of range: allowed > penetration + 20 = "
-                          f"{disk.penetration + 20:g} mm")
-    res = load_resolution(preset.resolution)
-    if res.graded and res.fine_width * 1000 <= sleeve.outer_diameter:
-        raise ConfigError(f"resolution {res.name!r}: fine_width = {1000 * res.fine_width:g} mm is out of range: allowed "
-                          f"> sleeve outer diameter {sleeve.outer_diameter:g} mm (the plate works in the fine zone)")
-    if preset.width <= sleeve.outer_diameter:
-        raise ConfigError(f"preset.width = {preset.width:g} is out of range: allowed > sleeve outer diameter "
-                          f"{sleeve.outer_diameter:g} mm")
-    lay = layout(disk, speed_kmh, slip, preset.holes, preset.lead_in, preset.run_out,
-                 tip_sphere=TIP_SPHERE_RATIO * disk.d)
-    params = {"soil": as_dict(soil), "disk": as_dict(disk), "sleeve": as_dict(sleeve), "preset": as_dict(preset),
-              "slip": slip, "speed_kmh": speed_kmh, "seed": seed, "mode": mode, "disk_inertia": disk_inertia,
-              "layout": {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(lay).items()},
-              "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}
-    if weight is not None:                  # only then: the ids of runs without a weight stay as they were
-        params["weight"] = weight
-    if res.graded:                          # likewise; measure.py reads the fine zone from here
-        params["graded"] = {k: getattr(res, k) for k in ("radius", "spread", "coarse_radius", "fine_width",
-                                                             "fine_depth")}
-        check_graded(res, [x / 1000 for x in params["bed_size_mm"]], preset.lateral)
-    if awake is not None:                   # likewise
-        params["awake_mm"] = awake
-    # the layout is in the id, rounded (the last bits of its trigonometry may differ between machines), so a
-    # change of the geometry's code is a new run, never a reused folder
-    rounded = {k: ([round(x, 6) for x in v] if isinstance(v, list) else round(v, 6))
-               for k, v in params["layout"].items()}
-    params["id"] = run_id({**params, "layout": rounded})
-    return params
-
-
 def punch_surface(u_top: float, u_tip: float, radius: float, h: float, a: float):
     """Triangles of a cylinder-and-cone punch along its axis u (v, w across it), in mm: the cylinder of
     `radius` from u_top to the cone's base at u_tip - h, the cone to the apex u_tip, cut where the inscribed
@@ -671,67 +592,6 @@ def energy_balance(start: dict, end: dict) -> dict:
     return {"work_tool": work, **stored, **({"window": window} if window is not None else {}),
             **{f"dissipated_{k}": v for k, v in delta.items()},
             "residual": residual, "residual_fraction": residual / work if work else float("nan")}
-
-
-def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
-    """The command line of one run; `plan_from_argv` and `main` read it."""
-    from scripts import bed
-    p = argparse.ArgumentParser(prog="holes run", description=__doc__.splitlines()[0], exit_on_error=exit_on_error)
-    p.add_argument("--soil", default="clay")
-    p.add_argument("--preset", default="quick")
-    p.add_argument("--disk", default="configs/disk.toml")
-    p.add_argument("--slip", type=float)
-    p.add_argument("--speed", type=float, help="forward speed, km/h (default: the disk config's)")
-    p.add_argument("--holes", type=int, help="holes to measure (default: the preset's)")
-    p.add_argument("--lead-in", type=int, help="holes formed first and not measured (default: the preset's)")
-    p.add_argument("--width", type=float, help="mm, overrides the preset")
-    p.add_argument("--depth", type=float, help="mm, overrides the preset")
-    p.add_argument("--resolution", help="particle size (configs/resolutions.toml), overrides the preset")
-    p.add_argument("--dt-safety", type=float, help="time step / critical time step, overrides the preset")
-    p.add_argument("--lateral", help="the strip's sides, walls | periodic, overrides the preset")
-    p.add_argument("--mode", default="prescribed", help="prescribed | free")
-    p.add_argument("--disk-inertia", type=float, default=0.05, help="kg·m², free mode")
-    p.add_argument("--weight", type=float, help="N, free mode: the axis sinks under this load (default: held)")
-    p.add_argument("--awake", type=awake_arg, metavar="BEHIND,AHEAD",
-                   help="mm: only the soil from BEHIND behind the tools' reach to AHEAD ahead of it moves; the rest "
-                   "sleeps (default: all of it moves)")
-    p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
-    p.add_argument("--vtk", action="store_true", help="also write VTK files for ParaView")
-    p.add_argument("--out", help="runs folder (default results/runs)")
-    p.add_argument("--bed-dir", default=str(bed.BED_DIR))
-    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
-    p.add_argument("--tool", action="append", metavar="PART.KEY=VALUE",
-                   help="override a disk or sleeve field, e.g. disk.D=45, sleeve.stiffness=16")
-    p.add_argument("--rerun", action="store_true", help="run again from the start, even if this run's folder "
-                   "has a summary or a checkpoint")
-    p.add_argument("--checkpoint-every", type=float, default=CHECKPOINT_EVERY,
-                   help="s of wall time between checkpoints of an unfinished run (0: none)")
-    return p
-
-
-def awake_arg(text: str) -> list:
-    """`--awake BEHIND,AHEAD` (mm)."""
-    try:
-        behind, ahead = (float(x) for x in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: allowed two lengths BEHIND,AHEAD in mm, e.g. 60,120") from None
-    return [behind, ahead]
-
-
-def plan_args(a: argparse.Namespace) -> dict:
-    return plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
-                parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool), a.resolution, a.dt_safety,
-                a.weight, a.lateral, a.awake)
-
-
-def plan_from_argv(argv: list[str]) -> dict:
-    """The checked parameters of the run `scripts/disk.py ARGV` would make, without running it (batches)."""
-    try:
-        a = arguments(exit_on_error=False).parse_args(argv)
-    except argparse.ArgumentError as e:
-        raise ConfigError(str(e)) from None
-    return plan_args(a)
 
 
 def main(argv=None) -> int:

@@ -35,6 +35,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.config import (ROOT, SEED, THREADS, ConfigError, Field, as_dict, check_table, load_resolution, load_soil,  # noqa: E402
                              option, parse_overrides, read_toml)
+from analysis.bed_spec import BED_DIR  # noqa: E402
 from analysis.io import atomic_write, provenance  # noqa: E402
 from analysis.kinematics import TIP_SPHERE_RATIO  # noqa: E402
 
@@ -110,7 +111,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     soil = load_soil(params["soil"]["name"])
     log = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     bed_path = bedmod.build(soil.name, scene["resolution"], params["bed_size_mm"], params["seed"], threads,
-                            quiet=quiet, bed_dir=bed_dir or bedmod.BED_DIR)
+                            quiet=quiet, bed_dir=bed_dir or BED_DIR)
     meta = bedmod.load_meta(bed_path)
     out = open_run_folder(out_root, params, threads)
 
@@ -211,7 +212,6 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
 
 
 def main(argv=None) -> int:
-    from scripts import bed
     p = argparse.ArgumentParser(prog="holes duckbeak", description=__doc__.splitlines()[0])
     p.add_argument("--config", default="configs/pepper.toml")
     p.add_argument("--soil", help="default: [soil_scene].soil")
@@ -223,7 +223,7 @@ def main(argv=None) -> int:
     p.add_argument("--out", help="runs folder (default results/runs)")
     p.add_argument("--report", default=str(ROOT / "results/pepper/duckbeak"),
                    help="where the hole's table and pictures are copied (default results/pepper/duckbeak)")
-    p.add_argument("--bed-dir", default=str(bed.BED_DIR))
+    p.add_argument("--bed-dir", default=str(BED_DIR), help="where beds are kept (default results/beds)")
     p.add_argument("--rerun", action="store_true", help="run again even if this run's folder has a summary")
     a = p.parse_args(argv)
     runs = Path(a.out) if a.out else ROOT / "results/runs"

@@ -36,9 +36,9 @@ def test_bad_option_exits_2_naming_it_and_its_range(argv, field, tmp_path, capsy
 
 
 def test_a_scene_refuses_zero_threads_before_it_plans():
-    from scripts import disk
+    from analysis.run_spec import plan_from_argv
     with pytest.raises(ConfigError, match=r"--threads = 0 is out of range: allowed \[1, 64\]"):
-        disk.plan_from_argv(["--soil", "clay", "--preset", "test", "--threads", "0"])
+        plan_from_argv(["--soil", "clay", "--preset", "test", "--threads", "0"])
 
 
 @pytest.mark.parametrize("option, value", [("--speed", "-1"), ("--cone-scale", "0"), ("--depth", "0")])
@@ -51,5 +51,5 @@ def test_the_cone_checks_its_own_numbers_before_settling_a_bed(tmp_path, option,
 
 def test_one_slip_range_for_the_disk_config_and_a_run():
     from analysis.config import DISK_FIELDS
-    from scripts.disk import RUN_FIELDS
+    from analysis.run_spec import RUN_FIELDS
     assert DISK_FIELDS["slip"] is RUN_FIELDS["slip"]

@@ -84,12 +84,13 @@ def test_every_help_page_prints(capsys):
 def test_a_negative_packing_seed_is_refused_by_bed_and_run():
     """YADE's makeCloud draws a random packing for a negative seed: the bed would be cached under a name
     that does not make it again, so both entries refuse it before YADE starts."""
-    from scripts import bed, disk
+    from analysis import run_spec
+    from scripts import bed
     with pytest.raises(ConfigError, match=r"bed\.seed = -1 is out of range: allowed \[0, 2147483647\]"):
         bed.build("clay", "tiny", (100.0, 100.0, 60.0), seed=-1)
     with pytest.raises(ConfigError, match=r"run\.seed = -1 is out of range"):
-        disk.plan_from_argv(["--soil", "clay", "--preset", "test", "--seed", "-1"])
-    assert disk.plan_from_argv(["--soil", "clay", "--preset", "test", "--seed", "0"])["seed"] == 0
+        run_spec.plan_from_argv(["--soil", "clay", "--preset", "test", "--seed", "-1"])
+    assert run_spec.plan_from_argv(["--soil", "clay", "--preset", "test", "--seed", "0"])["seed"] == 0
 
 
 def test_the_parameter_page_is_current():
@@ -106,7 +107,7 @@ def test_bad_graded_resolution_is_refused(tmp_path):
     """A graded bed (configs/resolutions.toml) whose coarse grains overlap the fine sizes, whose fine zone does
     not fit the strip or leaves the plate outside it, or whose sides are periodic, is refused before YADE starts."""
     from analysis.config import load_resolution
-    from scripts.disk import plan
+    from analysis.run_spec import plan
     p = tmp_path / "r.toml"
     p.write_text("[g]\nradius = 0.004\nspread = 0.25\ncoarse_radius = 0.006\nfine_width = 0.1\nfine_depth = 0.09\n")
     with pytest.raises(ConfigError, match=r"g: a graded bed needs coarse_radius \(1 - spread\) > radius \(1 \+ spread\)"):
