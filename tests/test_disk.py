@@ -90,10 +90,12 @@ def test_spacing_is_2piR_over_N_and_no_grain_is_lost(two_holes):
 
 @pytest.mark.scene
 def test_free_rolling_at_low_resistance_rolls_without_slip(side_scenes):
-    """Without bonds the free disk turns nearly at the rolling rate: the slip its hole spacing gives (eq 1) is
-    small."""
+    """Without bonds the free disk turns nearly at the rolling rate: the slip its hole spacing gives (eq 1) stays
+    near zero, where a locked disk would give δ → 1 and a spinning one δ ≪ 0. One spacing on this short strip
+    scatters with the packing: packings 1-6 on one machine gave -0.150 to +0.021 (mean -0.062, SD 0.060), and
+    packing 1 gave +0.101 on another; the bound is the mean ± 4 SD, |δ| < 0.3."""
     summary = json.loads(side_scenes["low-resistance"].result().stdout.strip().splitlines()[-1])
-    assert len(summary["slip_holes"]) == 1 and abs(summary["slip_holes"][0]) < 0.1
+    assert len(summary["slip_holes"]) == 1 and abs(summary["slip_holes"][0]) < 0.3
 
 
 @pytest.mark.scene
