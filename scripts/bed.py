@@ -30,6 +30,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -68,7 +69,7 @@ def save(out: Path, pos, rad, meta: dict) -> Path:
     """The bed's grains (`out`, .npz) and metadata (.json beside it), each written atomically, the grains first:
     a bed is on disk only once its .json is."""
     import numpy as np
-    tmp = out.with_name(f".{out.stem}.tmp.npz")
+    tmp = out.with_name(f".{out.stem}.{os.getpid()}.tmp.npz")     # two processes settling one bed write apart
     out.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(tmp, pos=pos, radius=rad)
     tmp.replace(out)

@@ -104,7 +104,7 @@ def plan(path="configs/pepper.toml", **changes) -> dict:
 def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: Path | None = None,
              quiet: bool = False) -> dict:
     from scripts import bed as bedmod
-    from scripts.disk import (GUARD_EVERY, GUARD_SPEED, TOOL_SELF, as_tool, guard, open_run_folder, punch_surface,
+    from scripts.parts import (GUARD_EVERY, GUARD_SPEED, TOOL_SELF, as_tool, guard, open_run_folder, punch_surface,
                               save_state, start_scene)
     from analysis import pepper
     planter, scene, ps = params["planter"], params["soil_scene"], params["pass"]

@@ -99,7 +99,7 @@ def write_stl(path: Path, tris):
 
 def main() -> int:
     from scripts import bed as bedmod
-    from scripts.disk import punch_surface
+    from scripts.parts import punch_surface
     from analysis.metrology import surface_level
     import numpy as np
     exe = shutil.which("liggghts")
@@ -151,7 +151,7 @@ def main() -> int:
                          "punch_force_z_end_n": float(force[-1]) if phase == "punch" and force else np.nan})
 
     print("bench peer: YADE ...", file=sys.stderr, flush=True)
-    from scripts.disk import TOOL_SELF, as_tool, start_scene
+    from scripts.parts import TOOL_SELF, as_tool, start_scene
     _, grains, steel, _, _ = start_scene(soil, bed_path, meta, 1, H - z_top)
     from yade import O, TranslationEngine, utils
     from scripts import soil as part

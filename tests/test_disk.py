@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.config import ROOT, load_disk
+from analysis.config import ROOT, ConfigError, load_disk
 from analysis.metrology import deficit_centres
 from analysis.theory import hole_spacing
 
@@ -116,9 +116,16 @@ def test_weight_sets_the_penetration(side_scenes):
                                          (["--mode", "free", "--weight", "0.1"], "weight"),
                                          (["--lateral", "open"], "lateral"), (["--awake", "60"], "awake"),
                                          (["--awake=-5,100"], "awake")])
-def test_bad_run_input_names_the_field(tmp_path, args, field):
-    r = run_scene(tmp_path, "--soil", "clay", *args, expect_ok=False)
-    assert r.returncode == 2 and field in r.stderr and "allowed" in r.stderr
+def test_bad_run_input_names_the_field(args, field):
+    from analysis.run_spec import plan_from_argv
+    with pytest.raises(ConfigError) as e:
+        plan_from_argv(["--soil", "clay", "--preset", "test", *args])
+    assert field in str(e.value) and "allowed" in str(e.value), str(e.value)
+
+
+def test_the_scene_refuses_bad_input_before_building_a_bed(tmp_path):
+    r = run_scene(tmp_path, "--soil", "clay", "--slip", "1.5", expect_ok=False)
+    assert r.returncode == 2 and "slip" in r.stderr and "allowed" in r.stderr and "Traceback" not in r.stderr
     assert not (tmp_path / "beds").exists()            # rejected before any scene was built
 
 
