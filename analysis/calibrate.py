@@ -6,7 +6,6 @@ read here.
 from __future__ import annotations
 
 import json
-import math
 import re
 import sys
 from pathlib import Path

@@ -5,7 +5,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from analysis.config import CONE_FIELDS, ROOT, SEED, THREADS, WORKERS, ConfigError, Field, load_disk, option
+from analysis.config import (CONE_FIELDS, ROOT, SEED, THREADS, WORKERS, CommandLine, ConfigError, Field, load_disk,
+                             option)
 
 
 def cmd_theory(args) -> int:
@@ -270,7 +271,7 @@ def run_folder(text: str) -> Path:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="holes", description=__doc__ + " Commands in workflow order: theory; "
+    parser = CommandLine(prog="holes", description=__doc__ + " Commands in workflow order: theory; "
                                      "beds and calibration; runs, measuring and the field comparison (the main job: "
                                      "compare); studies and benchmarks; seed 000's duck-beak; the parameter page.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")

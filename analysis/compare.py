@@ -12,14 +12,13 @@ the fitted normals, refit, recompute). The raw count k/n of passing holes is giv
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from analysis.config import ROOT, load_criteria, load_disk, load_seedling
-from analysis.io import atomic_csv, atomic_write, read_table, stamp
+from analysis.config import ROOT, load_disk, load_seedling
+from analysis.io import read_table
 
 METRICS = ("L0", "L1", "L2", "h1", "C")
 RESIDUAL_LIMIT = 5.0    # % of the tools' work: a run whose energy balance leaves more unexplained is flagged

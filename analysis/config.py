@@ -9,6 +9,7 @@ out-of-range values raise `ConfigError` naming the file, the key and the allowed
 """
 from __future__ import annotations
 
+import argparse
 import math
 import tomllib
 from dataclasses import dataclass, fields
@@ -59,6 +60,14 @@ def positive(unit="mm", meaning="", kind=float) -> Field:
     return Field(0.0, math.inf, lo_open=True, hi_open=True, kind=kind, unit=unit, meaning=meaning)
 
 
+class CommandLine(argparse.ArgumentParser):
+    """argparse's parser, whose error is one line, `PROG: MESSAGE (--help lists the options)`, and exit code 2
+    (argparse's own prints the whole usage first)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: {message} ({self.prog} --help lists the options)\n")
+
+
 def option(name: str, field: Field, many: bool = False):
     """An argparse `type` for the option `name`: its text read as `field.kind` (a comma-separated list of them
     with `many`) and checked against `field`, so a bad value stops the command line with the option, its
@@ -69,7 +78,6 @@ def option(name: str, field: Field, many: bool = False):
     >>> option("--seeds", SEED, many=True)("1,2")
     [1, 2]
     """
-    import argparse
 
     def parse(text: str):
         values = []

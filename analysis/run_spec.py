@@ -10,7 +10,7 @@ import json
 import math
 
 from analysis.bed_spec import BED_DIR, check_graded
-from analysis.config import (SEED, SLIP, THREADS, ConfigError, Field, as_dict, load_disk, load_preset, load_resolution,
+from analysis.config import (SEED, SLIP, THREADS, CommandLine, ConfigError, Field, as_dict, load_disk, load_preset, load_resolution,
                              load_sleeve, load_soil, option, parse_overrides, preset_with, soil_with, tool_with)
 from analysis.kinematics import TIP_SPHERE_RATIO, layout
 
@@ -92,13 +92,13 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
 
 def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     """The command line of one run; `plan_from_argv` and `main` read it."""
-    p = argparse.ArgumentParser(prog="holes run", description="The rolling six-punch disk with spring-loaded press "
+    p = CommandLine(prog="holes run", description="The rolling six-punch disk with spring-loaded press "
                                 "sleeves in a soil strip (seed 001 §1.2, §2): one run (scripts/disk.py).",
                                 exit_on_error=exit_on_error)
-    p.add_argument("--soil", default="clay")
-    p.add_argument("--preset", default="quick")
-    p.add_argument("--disk", default="configs/disk.toml")
-    p.add_argument("--slip", type=float)
+    p.add_argument("--soil", default="clay", help="clay | loam | sand, or a soil config's path (default clay)")
+    p.add_argument("--preset", default="quick", help="run preset of configs/presets.toml (default quick)")
+    p.add_argument("--disk", default="configs/disk.toml", help="disk config (default configs/disk.toml)")
+    p.add_argument("--slip", type=float, help="slip rate δ = 1 - r/R, [0, 0.9] (default: the disk config's, 0)")
     p.add_argument("--speed", type=float, help="forward speed, km/h (default: the disk config's)")
     p.add_argument("--holes", type=int, help="holes to measure (default: the preset's)")
     p.add_argument("--lead-in", type=int, help="holes formed first and not measured (default: the preset's)")
@@ -113,7 +113,7 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--awake", type=awake_arg, metavar="BEHIND,AHEAD",
                    help="mm: only the soil from BEHIND behind the tools' reach to AHEAD ahead of it moves; the rest "
                    "sleeps (default: all of it moves)")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=int, default=1, help="the bed's packing seed, >= 0 (default 1)")
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
     p.add_argument("--vtk", action="store_true", help="also write VTK files for ParaView")
     p.add_argument("--out", help="runs folder (default results/runs)")

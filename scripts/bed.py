@@ -36,7 +36,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (LATERAL, SEED, THREADS, ConfigError, Resolution, check_lateral,  # noqa: E402
+from analysis.config import (LATERAL, SEED, THREADS, CommandLine, ConfigError, Resolution, check_lateral,  # noqa: E402
                              load_resolution, load_soil, option, parse_overrides, soil_with)
 from analysis.bed_spec import (BED_DIR, bed_key, check_graded, check_size, check_tiles,  # noqa: E402
                                mean_volume, zones)
@@ -235,11 +235,11 @@ def load_meta(path: Path) -> dict:
 
 def bed_arguments(description: str, default_size: str, prog: str = "holes bed") -> argparse.ArgumentParser:
     """The options every scene takes to name its bed."""
-    p = argparse.ArgumentParser(prog=prog, description=description)
-    p.add_argument("--soil", default="clay")
-    p.add_argument("--resolution", default="default")
+    p = CommandLine(prog=prog, description=description)
+    p.add_argument("--soil", default="clay", help="clay | loam | sand, or a soil config's path (default clay)")
+    p.add_argument("--resolution", default="default", help="grain sizes of configs/resolutions.toml (default default)")
     p.add_argument("--size", default=default_size, help="bed length,width,depth in mm")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=int, default=1, help="packing seed, >= 0 (default 1)")
     p.add_argument("--lateral", default="walls", help="the bed's sides: " + " | ".join(LATERAL))
     p.add_argument("--tiles", type=int, default=1, help="a periodic bed repeated tiles x tiles times (--size: one copy)")
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")

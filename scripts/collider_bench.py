@@ -18,7 +18,6 @@ kinematic engines; the rest is the stability guard and YADE's loop).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import shutil
 import sys
@@ -26,7 +25,7 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import ROOT, THREADS, option  # noqa: E402
+from analysis.config import ROOT, THREADS, CommandLine, option  # noqa: E402
 from analysis.io import atomic_csv, machine, stamp  # noqa: E402
 
 SETTINGS = [                # (name, InsertionSortCollider attributes); the first, YADE's default, runs twice
@@ -45,7 +44,7 @@ def main(argv=None) -> int:
     import numpy as np
     import pandas as pd
     from scripts import disk
-    p = argparse.ArgumentParser(prog="holes bench collider", description=__doc__.splitlines()[0])
+    p = CommandLine(prog="holes bench collider", description=__doc__.splitlines()[0])
     p.add_argument("run", help="a run folder with a checkpoint (results/runs/<id>)")
     p.add_argument("--steps", type=int, default=3000, help="steps per setting (default 3000)")
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")

@@ -172,7 +172,7 @@ def damage_map(first: set, now: set, pos, axis: tuple, surface: float, period: t
 def main(argv=None) -> int:
     from scripts import bed
     p = bed.bed_arguments(__doc__.splitlines()[0], "200,200,260", "holes cone")
-    p.add_argument("--cone-scale", type=float, default=3.0)
+    p.add_argument("--cone-scale", type=float, default=3.0, help="cone size / ASABE S313 size, [0.5, 20] (default 3)")
     p.add_argument("--speed", type=float, default=0.3, help="m/s")
     p.add_argument("--cohesion", type=float, help="Pa; overrides the soil config's normal and shear cohesion")
     p.add_argument("--depth", type=float, default=CI_DEPTH * 1000, help="deepest base depth, mm (field: 150)")

@@ -23,7 +23,6 @@ the hole's table and pictures to results/pepper/duckbeak/.
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import hashlib
 import json
@@ -33,7 +32,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (ROOT, SEED, THREADS, ConfigError, Field, as_dict, check_table, load_resolution, load_soil,  # noqa: E402
+from analysis.config import (ROOT, SEED, THREADS, CommandLine, ConfigError, Field, as_dict, check_table, load_resolution, load_soil,  # noqa: E402
                              option, parse_overrides, read_toml)
 from analysis.bed_spec import BED_DIR  # noqa: E402
 from analysis.io import atomic_write, provenance  # noqa: E402
@@ -212,11 +211,11 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="holes duckbeak", description=__doc__.splitlines()[0])
-    p.add_argument("--config", default="configs/pepper.toml")
+    p = CommandLine(prog="holes duckbeak", description=__doc__.splitlines()[0])
+    p.add_argument("--config", default="configs/pepper.toml", help="the mechanism's config (default configs/pepper.toml)")
     p.add_argument("--soil", help="default: [soil_scene].soil")
     p.add_argument("--column", help="Table 2's column: initial | designed")
-    p.add_argument("--resolution")
+    p.add_argument("--resolution", help="grain sizes (default: [soil_scene].resolution)")
     p.add_argument("--set", action="append", metavar="KEY=NUMBER",
                    help="override a number of [planter] or [soil_scene], e.g. D=50, seed=2, relax=0.5")
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
