@@ -270,7 +270,7 @@ def loop_metrics(Z, spread: str = "gap") -> dict:
     out = {"height": float(Z.imag.max() - Z.imag.min()), "depth": math.nan, "spread": math.nan, "crossed": False,
            "ground": math.nan, "x_III": math.nan}
     c = crossings(entry, exit_)
-    c = c[c[:, 1] <= c[:, 0]]              # the loop closes within one crank turn (entry a - n, exit b turns/n)
+    c = c[c[:, 1] <= c[:, 0]]      # within one crank turn: entry sample a is at a - n, exit b at b; b - (a - n) <= n
     if not len(c):
         return out
     a, b = c[np.argmin(c[:, 1])]                             # where the exit first meets the entry
