@@ -32,6 +32,34 @@ ECONOMIES = ROOT / "configs/studies/economies.toml"
 SCENE_FIELDS = ("width", "depth", "lead_in", "mode")     # what an economies case may change (else: a seed)
 
 
+def run_cost(summary: dict, bed_meta: dict | None = None) -> dict:
+    """One finished disk run's cost (`./holes bench runs`, results/bench/runs.csv): its grains, steps and wall
+    time, the wall and CPU time per measured hole (the run's own time, without settling its bed, over the holes
+    after the lead-in ones) and per 200 mm of travel; the bed's settling time beside it when the bed's metadata
+    is at hand (a cached bed is settled once for every run on it).
+
+    >>> c = run_cost({"id": "r", "soil": "clay", "preset": "quick", "mode": "prescribed", "bed": "b",
+    ...               "particles": 10, "steps": 5, "dt": 1e-5, "travel_mm": 400.0, "wall_s": 600.0, "cpu_s": 900.0,
+    ...               "threads": 2, "particle_steps_per_s": 1.0, "holes": 3, "lead_in": 1}, {"wall_s": 120.0})
+    >>> c["measured_holes"], c["wall_s_per_measured_hole"], c["cpu_s_per_measured_hole"], c["bed_wall_s"]
+    (2, 300.0, 450.0, 120.0)
+    """
+    m, awake = summary, summary.get("awake")
+    measured = m["holes"] - m["lead_in"]
+    return {"run": m["id"], "soil": m["soil"], "preset": m["preset"], "mode": m["mode"], "bed": m["bed"],
+            "particles": m["particles"], "steps": m["steps"], "dt_s": m["dt"], "travel_mm": round(m["travel_mm"]),
+            "wall_s": round(m["wall_s"]), "cpu_s": round(m["cpu_s"]) if m.get("cpu_s") is not None else np.nan,
+            "threads": m["threads"], "particle_steps_per_s": round(m["particle_steps_per_s"]),
+            "wall_s_per_hole_200mm": round(m["wall_s"] * 200 / m["travel_mm"]), "measured_holes": measured,
+            "wall_s_per_measured_hole": round(m["wall_s"] / measured, 1) if measured else np.nan,
+            "cpu_s_per_measured_hole": (round(m["cpu_s"] / measured, 1) if measured and m.get("cpu_s") is not None
+                                        else np.nan),
+            "bed_wall_s": round(bed_meta["wall_s"], 1) if bed_meta else np.nan,
+            # --awake: the window (mm behind, ahead) and the share of grain-steps awake; else all awake
+            "awake_mm": f"{awake['behind_mm']:g},{awake['ahead_mm']:g}" if awake else "",
+            "awake_fraction": round(awake["awake_fraction"], 3) if awake else 1.0}
+
+
 def with_numerics(table: pd.DataFrame) -> pd.DataFrame:
     """The study table plus each case's grain radius, time-step factor and contact modulus (from the preset
     and soil a case did not override)."""

@@ -181,20 +181,14 @@ def cmd_bench(args) -> int:
         go = bench.run if args.what == "speed-vs-error" else bench.run_economies
         return go(workers(args), args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run)
     if args.what == "runs":
+        from analysis.bench import run_cost
         rows = []
         for path in sorted(Path(args.runs_dir or ROOT / "results/runs").glob("*/summary.json")):
             m = json.loads(path.read_text())
             if "travel_mm" not in m:                # a duck-beak run
                 continue
-            rows.append({"run": m["id"], "soil": m["soil"], "preset": m["preset"], "mode": m["mode"],
-                         "bed": m["bed"], "particles": m["particles"], "steps": m["steps"], "dt_s": m["dt"],
-                         "travel_mm": round(m["travel_mm"]), "wall_s": round(m["wall_s"]), "threads": m["threads"],
-                         "particle_steps_per_s": round(m["particle_steps_per_s"]),
-                         "wall_s_per_hole_200mm": round(m["wall_s"] * 200 / m["travel_mm"]),
-                         # --awake: the window (mm behind, ahead) and the share of grain-steps awake; else all awake
-                         "awake_mm": (f"{m['awake']['behind_mm']:g},{m['awake']['ahead_mm']:g}" if m.get("awake") else ""),
-                         "awake_fraction": round(m["awake"]["awake_fraction"], 3) if m.get("awake") else 1.0,
-                         "machine": machine()})
+            bed = Path(args.bed_dir or ROOT / "results/beds") / f"{m['bed']}.json"
+            rows.append({**run_cost(m, json.loads(bed.read_text()) if bed.exists() else None), "machine": machine()})
         if not rows:
             print("bench: no finished runs in results/runs; make one with ./holes run", file=sys.stderr)
             return 1
