@@ -5,8 +5,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from analysis.config import (CONE_FIELDS, ROOT, SEED, THREADS, WORKERS, CommandLine, ConfigError, Field, load_disk,
-                             option)
+from analysis.config import (COLLIDER_STEPS, CONE_FIELDS, ROOT, SEED, THREADS, WORKERS, CommandLine, ConfigError,
+                             Field, load_disk, option)
 
 
 def cmd_theory(args) -> int:
@@ -43,7 +43,8 @@ def cmd_calibrate(args) -> int:
     from analysis import calibrate
     lo, hi = args.cohesion_range
     try:
-        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, args.seeds, args.speed, args.threads, args.lateral, args.workers)
+        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, args.seeds, args.speed,
+                      args.threads, args.lateral, args.workers)
     except (ValueError, RuntimeError) as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1
@@ -243,7 +244,6 @@ def scene_batch_options(p, threads: int, out_help: str):
 
 STARTS = Field(1, 1000, kind=int, meaning="optimiser starts")
 SCREEN = Field(1, 10 ** 6, kind=int, meaning="random frames scored per case")
-STEPS = Field(1, 10 ** 7, kind=int, meaning="steps per setting")
 COHESION = Field(0.0, 1e8, unit="Pa", meaning="bond strength")
 
 
@@ -293,7 +293,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--lateral", default="periodic", help="the beds' sides: periodic (no side walls) | walls")
     p.add_argument("--workers", type=option("--workers", WORKERS), default=2, help="cone scenes at a time")
     p.add_argument("--threads", type=option("--threads", THREADS), default=1, help="threads per scene")
-    p.add_argument("--cohesion-range", type=cohesion_range, default=(0.0, 200000.0), help="lo,hi in Pa (default 0,200000)")
+    p.add_argument("--cohesion-range", type=cohesion_range, default=(0.0, 200000.0),
+                   help="lo,hi in Pa (default 0,200000)")
     p.set_defaults(func=cmd_calibrate)
     p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "
                        "cone-to-particle ratio, core density (results/calibration/cone_checks.csv, .png)")
@@ -349,7 +350,7 @@ def build_parser() -> argparse.ArgumentParser:
                        "(scripts/collider_bench.py)")
     p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "economies", "peer", "collider"])
     p.add_argument("--run", help="collider: a run folder with a checkpoint")
-    p.add_argument("--steps", type=option("--steps", STEPS), default=3000, help="collider: steps per setting (default 3000)")
+    p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000, help="collider: steps per setting (default 3000)")
     p.add_argument("--workers", type=option("--workers", WORKERS),
                    help="speed-vs-error, economies: cases at a time (default: cores / threads)")
     scene_batch_options(p, 1, "speed-vs-error, economies: table folder (default results/bench)")

@@ -135,6 +135,7 @@ def split_sections(path, data: dict, known: set[str]) -> dict:
 SLIP = Field(0.0, 0.9, meaning="slip rate δ = 1 − r/R (eq 1); the one range of every run, study and disk config")
 THREADS = Field(1, 64, kind=int, meaning="YADE (OpenMP) threads per scene")
 WORKERS = Field(1, 64, kind=int, meaning="scenes or cases at a time")
+COLLIDER_STEPS = Field(200, 100_000, kind=int, meaning="steps per contact-detection setting (bench collider)")
 
 CONE_FIELDS = {"cone_scale": Field(0.5, 20.0, meaning="cone size / ASABE S313 size"),    # scripts/cone.py
                "speed": Field(0.001, 2.0, lo_open=True, unit="m/s", meaning="penetration speed")}

@@ -25,7 +25,7 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import ROOT, THREADS, CommandLine, option  # noqa: E402
+from analysis.config import COLLIDER_STEPS, ROOT, THREADS, CommandLine, option  # noqa: E402
 from analysis.io import atomic_csv, machine, stamp  # noqa: E402
 
 SETTINGS = [                # (name, InsertionSortCollider attributes); the first, YADE's default, runs twice
@@ -46,7 +46,8 @@ def main(argv=None) -> int:
     from scripts import disk
     p = CommandLine(prog="holes bench collider", description=__doc__.splitlines()[0])
     p.add_argument("run", help="a run folder with a checkpoint (results/runs/<id>)")
-    p.add_argument("--steps", type=int, default=3000, help="steps per setting (default 3000)")
+    p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000,
+                   help="steps per setting, [200, 100000] (default 3000)")
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
     p.add_argument("--out", default=str(ROOT / "results/bench/collider.csv"))
     a = p.parse_args(argv)
@@ -54,9 +55,6 @@ def main(argv=None) -> int:
     if not (run / disk.CHECKPOINT).exists() or not (run / "config.json").exists():
         print(f"bench collider: {run} has no checkpoint.json and config.json: give a run stopped while running",
               file=sys.stderr)
-        return 2
-    if not 200 <= a.steps <= 100_000:
-        print(f"bench collider: --steps = {a.steps} is out of range: allowed 200-100000", file=sys.stderr)
         return 2
     params = json.loads((run / "config.json").read_text())
     ck = json.loads((run / disk.CHECKPOINT).read_text())
