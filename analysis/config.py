@@ -356,6 +356,7 @@ def load_seedling(path="configs/seedling.toml") -> Seedling:
 
 
 CRITERIA_METRICS = ("L0", "L1", "L2")
+L2_COLUMN = {"subsided level": "L2", "undisturbed surface": "L2_surface"}   # §4.2's two readings of L2
 
 
 def threshold(expr: str, seedling: Seedling, where: str = "criteria") -> float:
@@ -371,16 +372,25 @@ def threshold(expr: str, seedling: Seedling, where: str = "criteria") -> float:
 
 
 def load_criteria(path="configs/seedling.toml") -> dict[str, dict[str, float]]:
-    """Every reading of the pass criteria: {reading: {"L0": min, "L1": min, "L2": min}} in mm."""
+    """Every reading of the pass criteria: {reading: {"L0": min, "L1": min, L2 column: min}} in mm. A reading's
+    `L2_from` says which of §4.2's two readings of L2 it judges: "subsided level" (the literal one, L2 from the
+    pressed surface round the hole, the holes' column L2; the default) or "undisturbed surface" (L2 + h1, the
+    column L2_surface)."""
     seedling = load_seedling(path)
     readings = read_toml(path).get("criteria", {})
     if not readings:
         raise ConfigError(f"{path}: no [criteria.<reading>] table")
     out = {}
     for name, table in readings.items():
+        table = dict(table)
+        origin = table.pop("L2_from", "subsided level")
+        if origin not in L2_COLUMN:
+            raise ConfigError(f"{path}: criteria.{name}.L2_from = {origin!r}: allowed {' or '.join(map(repr, L2_COLUMN))}")
         if set(table) != set(CRITERIA_METRICS):
-            raise ConfigError(f"{path}: criteria.{name} has {sorted(table)}: allowed exactly {', '.join(CRITERIA_METRICS)}")
-        out[name] = {m: threshold(table[m], seedling, f"{path}: criteria.{name}.{m}") for m in CRITERIA_METRICS}
+            raise ConfigError(f"{path}: criteria.{name} has {sorted(table)}: allowed exactly {', '.join(CRITERIA_METRICS)}"
+                              " and optionally L2_from")
+        out[name] = {(L2_COLUMN[origin] if m == "L2" else m): threshold(table[m], seedling, f"{path}: criteria.{name}.{m}")
+                     for m in CRITERIA_METRICS}
     return out
 
 

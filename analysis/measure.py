@@ -14,7 +14,7 @@ from analysis.config import Resolution, load_seedling
 from analysis.io import atomic_csv, stamp
 from analysis.metrology import DEPTHS, measure_state
 
-COLUMNS = ["run", "soil", "seed", "hole", "found", "x", "C", "h1", "L0", "L1", "L2", "bottom", "grain_radius",
+COLUMNS = ["run", "soil", "seed", "hole", "found", "x", "C", "h1", "L0", "L1", "L2", "L2_surface", "bottom", "grain_radius",
            "probe", "cell", *(f"l_{H}" for H in DEPTHS)]
 
 
@@ -55,7 +55,7 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     x = np.array([h.x if h.found else np.nan for h in holes])      # C: NaN to or from a hole not found
     rows = [{"run": summary["id"], "soil": cfg["soil"]["name"], "seed": cfg["seed"], "hole": k + 1,
              "found": h.found, "x": h.x,
-             "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2,
+             "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2, "L2_surface": h.L2 + h.h1,
              "bottom": h.bottom, "grain_radius": probe, "probe": probe, "cell": cell,
              **{f"l_{H}": v for H, v in zip(DEPTHS, h.l_depth)}}
             for k, h in enumerate(holes)]

@@ -99,15 +99,66 @@ def chord(mask_line, step: float) -> float:
     return float((idx[-1] - idx[0] + 1) * step) if len(idx) else 0.0
 
 
-def sectioned_lengths(mask, step: float, probe: float):
-    """(L0, L1): the opening's lengths along x and across y, each the mean of 4 caliper chords on lines at
-    1/5 ... 4/5 of its extent the other way (§4.2). `mask` is where the probe's centre goes down into the
-    hole, so each chord gains the probe's diameter (it reaches a wall when its side touches it)."""
-    ix, iy = np.nonzero(mask)
+WALL_TURN_DEG = 40.0     # the hole's wall ends where the surface rises less steeply than this outward
+WALL_WINDOW = 1.0        # ... over this many probe diameters
+CORE = 0.5               # the hole's core: the region below the level this far from the opening down to the bottom
+
+
+def wall_edges(line, start: int, z_top: float, z_wall: float, window: int, rise: float) -> tuple[int, int]:
+    """The hole's two edges on one grid line of the probed surface, walking out both ways from cell `start` (on
+    the hole's bottom): an edge is the last cell below `z_top` (the cut, where a vertical wall crosses it), or,
+    once the walk is above `z_wall` (the hole's upper part), the cell where the wall turns flat: it rose at
+    least `rise` over the last `window` cells and rises less over the next (a shelf or a shallow scoop beside
+    the hole is not its opening; the flat floor of a line off the hole's axis is not a turn). A cell with no
+    grain under it ends the walk."""
+    edges = []
+    for way in (-1, 1):
+        i = start
+        while True:
+            j = i + way
+            if not 0 <= j < len(line) or not np.isfinite(line[j]) or line[j] >= z_top:
+                break
+            i = j
+            ahead, behind = i + way * window, i - way * window
+            if (line[i] > z_wall and 0 <= ahead < len(line) and 0 <= behind < len(line)
+                    and line[ahead] - line[i] < rise <= line[i] - line[behind]):
+                break
+        edges.append(i)
+    return edges[0], edges[1]
+
+
+def opening_lengths(S, seed, z_open: float, cut: float, step: float, probe: float, reach: float):
+    """(L0, L1): the hole's opening along x and across y, each the mean of 4 caliper readings on lines at
+    1/5 ... 4/5 of its extent the other way (§4.2), read between the wall's edges (wall_edges): where the wall
+    crosses the level `cut` below the opening level z_open, or turns flat below it. The lines along x are
+    placed over the hole's core (the region the probe reaches below halfway from z_open to the bottom, grown
+    from the deepest cell `seed`), those across over the length L0 found. Each line starts at its lowest cell
+    within `reach` of the seed. S is the probe's bottom, so each reading gains the probe's diameter (its side
+    meets a standing wall). The edges' level and slope are grain-scale choices fixed before any calibration:
+    one probe radius and WALL_TURN_DEG over a probe diameter."""
+    bottom = float(S[seed])
+    z_wall = z_open - CORE * (z_open - bottom)
+    below = np.where(np.isfinite(S), S, -np.inf)
+    core = grow(below < z_wall, seed)
+    window = max(1, int(round(WALL_WINDOW * 2 * probe / step)))
+    rise = window * step * np.tan(np.radians(WALL_TURN_DEG))
+    n_reach = int(round(reach / step))
+
+    def read(line, centre):
+        lo, hi = max(0, centre - n_reach), min(len(line), centre + n_reach + 1)
+        part = np.where(np.isfinite(line[lo:hi]), line[lo:hi], np.inf)
+        a, b = wall_edges(line, lo + int(np.argmin(part)), z_open - cut, z_wall, window, rise)
+        return a, b
+
+    iy = np.nonzero(core)[1]
     rows = [int(round(iy.min() + f * (iy.max() - iy.min()))) for f in SECTIONS]
-    cols = [int(round(ix.min() + f * (ix.max() - ix.min()))) for f in SECTIONS]
-    return (float(np.mean([chord(mask[:, j], step) for j in rows])) + 2 * probe,
-            float(np.mean([chord(mask[i, :], step) for i in cols])) + 2 * probe)
+    along = [read(S[:, j], seed[0]) for j in rows]
+    L0 = float(np.mean([(b - a + 1) * step for a, b in along])) + 2 * probe
+    x_lo, x_hi = np.mean([a for a, _ in along]), np.mean([b for _, b in along])
+    cols = [int(round(x_lo + f * (x_hi - x_lo))) for f in SECTIONS]
+    across = [read(S[i, :], seed[1]) for i in cols]
+    L1 = float(np.mean([(b - a + 1) * step for a, b in across])) + 2 * probe
+    return L0, L1
 
 
 def inscribed_diameter(mask, step: float, probe: float) -> float:
@@ -182,7 +233,7 @@ def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sl
     if min(np.hypot(x_open - xc, y_open - yc), np.hypot(X[deepest] - xc, Y[deepest] - yc)) > D / 2:
         return HoleMeasure(xc, h1, np.nan, np.nan, np.nan, z_surface - float(S[seed]), z_open,
                            (np.nan,) * len(DEPTHS), found=False)
-    L0, L1 = sectioned_lengths(opening, step, probe)
+    L0, L1 = opening_lengths(S, seed, z_open, probe if cut is None else cut, step, probe, D / 2)
     prev_z, prev_d = z_open, inscribed_diameter(opening, step, probe)
     z = z_open
     L2 = z_open - float(S[seed])

@@ -2,14 +2,16 @@
 the hole, beside the level the sleeve's plate face reached, and where h1 is read.
 
 The plate (an annulus from D/2 to the sleeve's outer radius) presses its ring down to its face, which at the
-deepest point stands `penetration - rest_from_tip - travel` below the undisturbed surface, `travel` being how
-far the soil pushed the plate back on its spring (the run's greatest sleeve travel). h1 is the median of the
+deepest point stands `penetration - rest_from_tip - travel` below the scene's surface level, `travel` being how
+far the soil pushed the plate back on its spring (the run's greatest sleeve travel); put in the metrology's
+datum (plate_depths). h1 is the median of the
 probed surface on the inner half of the ring, D/2 ... (D/2 + outer radius)/2 (metrology.measure_hole): the rim
 the punch and plate heave round the plate overhangs the probed surface over the outer half.
 
-The opening (L0, L1) is cut `cut` below the subsided level −h1, one probe radius by default (the grain-scale
-roughness of the pressed ring). cut.csv gives each hole's L0, L1 and L2 at 0 ... 2 probe radii, so the
-measure's dependence on that level is a number, not a caveat.
+The opening's edges (L0, L1) are where the wall crosses the level `cut` below the subsided level −h1 (one probe
+radius by default, the grain-scale roughness of the pressed ring) or turns flat below it (metrology.wall_edges).
+cut.csv gives each hole's L0, L1 and L2 at 0 ... 2 probe radii, so the measure's dependence on that level is a
+number, not a caveat.
 """
 from __future__ import annotations
 
@@ -25,10 +27,15 @@ from analysis.metrology import h1_band, measure_hole, side_profile
 CUTS = (0.0, 0.5, 1.0, 1.5, 2.0)      # the opening's cut below −h1, in probe radii (1: the rule)
 
 
-def plate_depths(cfg: dict, summary: dict) -> list[float]:
-    """Depth of the plate face below the undisturbed surface at each measured hole's deepest point (mm)."""
+def plate_depths(cfg: dict, summary: dict, z_surface: float) -> list[float]:
+    """Depth of the plate face below the undisturbed level the metrology reads (`z_surface`, mm) at each measured
+    hole's deepest point. The scene places the tips (and so the plate) from its own level, the median of the
+    highest grain top in each 4-radius cell (scripts/parts.py), which stands 2.4-3.0 mm above the median probed
+    surface the metrology reads h1 from (the kept runs' beds); both are in summary.json and the bed, so the
+    plate is put in the metrology's datum: P - rest_from_tip - travel - (scene level - metrology level)."""
     lead_in = summary.get("lead_in", 0)
-    return [cfg["disk"]["penetration"] - cfg["sleeve"]["rest_from_tip"] - t
+    offset = 1000 * summary["z_surface_m"] - z_surface
+    return [cfg["disk"]["penetration"] - cfg["sleeve"]["rest_from_tip"] - t - offset
             for t in summary["sleeve_max_travel_mm"][lead_in:]]
 
 
@@ -41,7 +48,7 @@ def profiles(measured) -> pd.DataFrame:
     half_width = cfg["bed_size_mm"][1] / 2
     entries = summary["hole_x_mm"][summary.get("lead_in", 0):]
     rows = []
-    for row, xc, plate in zip(table.itertuples(), entries, plate_depths(cfg, summary)):
+    for row, xc, plate in zip(table.itertuples(), entries, plate_depths(cfg, summary, z_surface)):
         r, depth = side_profile(S, xs, ys, z_surface, xc, half_width, D, min(outer + 10, half_width))
         for side, d in zip(("-y", "+y"), depth):
             rows += [{"run": summary["id"], "soil": cfg["soil"]["name"], "hole": row.hole, "h1": row.h1,

@@ -11,7 +11,7 @@ from analysis.io import read_table
 
 COLUMNS = {"preset", "soil", "metric", "field_mean", "field_min", "field_max", "sim_mean", "sim_sd", "ci_lo",
            "ci_hi", "n_holes", "n_runs", "abs_error", "rel_error_pct", "inside_field_range", "theory_table1",
-           "theory_envelope", "passed_holes"}
+           "theory_envelope", "passed_holes", "field_sd", "within_10pct", "field_in_ci"}
 
 
 def compare(*args, dirs, out):
@@ -27,12 +27,14 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     assert r.returncode == 0, r.stderr[-3000:]
     table = read_table(tmp_path / "comparison.csv")
     assert COLUMNS <= set(table.columns)
-    assert set(table.metric) == {"L0", "L1", "L2", "h1", "C", "pass_stated", "pass_field"}
+    assert set(table.metric) == {"L0", "L1", "L2", "L2_surface", "h1", "C", "pass_stated", "pass_field",
+                                 "pass_stated_surface", "pass_field_surface"}
     hole_rows = table[~table.metric.str.startswith("pass")]
     assert hole_rows[["field_mean", "sim_mean", "abs_error"]].notna().all().all()
     assert (table.field_min <= table.field_mean).all() and (table.field_mean <= table.field_max).all()
     holes = read_table(tmp_path / "comparison" / "test-holes.csv")
     assert len(holes) == 2 and (holes.L2 > 0).all() and (holes.L0 > 0).all()
+    assert np.allclose(holes.L2_surface, holes.L2 + holes.h1, atol=0.02)     # §4.2's other reading of L2
     for m in table.metric:
         assert (tmp_path / "comparison" / f"test-{m}.png").stat().st_size > 5000
     assert "| clay | L0 |" in (tmp_path / "comparison.md").read_text()
