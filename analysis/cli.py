@@ -92,10 +92,19 @@ def cmd_compare(args) -> int:
     from analysis import compare_job
     try:
         return compare_job.run(args.preset, args.soils.split(","), args.seeds,
-                               args.threads, args.parallel, args.runs_dir, args.bed_dir, args.out, args.no_run, args.kept,
+                               args.threads, args.workers, args.runs_dir, args.bed_dir, args.out, args.no_run, args.kept,
                                args.scheduler)
     except ConfigError as e:
         print(f"compare: {e}", file=sys.stderr)
+        return 2
+
+
+def cmd_calibrate_machine(args) -> int:
+    from analysis import machine
+    try:
+        return machine.run(args.design, args.workers, args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run)
+    except ConfigError as e:
+        print(f"calibrate-machine: {e}", file=sys.stderr)
         return 2
 
 
@@ -320,12 +329,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("folders", nargs="+", type=run_folder, help="results/runs/<id> ...")
     p.add_argument("--out", default="results/comparison/rings")
     p.set_defaults(func=cmd_rings)
+    p = sub.add_parser("calibrate-machine", help="fit the penetration and the sleeve's spring on clay's field "
+                       "holes (results/calibration/machine.csv, machine_fit.csv)")
+    p.add_argument("design", nargs="?", default="configs/studies/machine_clay.toml",
+                   help="a study file over disk.penetration and sleeve.stiffness, clay only")
+    p.add_argument("--workers", type=option("--workers", WORKERS), default=1, help="runs at a time (default 1)")
+    p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads per run (default 2)")
+    p.add_argument("--runs-dir", help="runs folder (default results/runs)")
+    p.add_argument("--bed-dir", help="beds folder (default results/beds)")
+    p.add_argument("--out", help="folder of machine.csv and the kept runs (default results/calibration)")
+    p.add_argument("--no-run", action="store_true", help="measure and fit the finished or kept runs; run nothing")
+    p.set_defaults(func=cmd_calibrate_machine)
     p = sub.add_parser("compare", help="the main job: run, measure and set the holes beside the field's Table 3")
     p.add_argument("--preset", default="quick")
     p.add_argument("--soils", default="clay,loam,sand")
     p.add_argument("--seeds", type=option("--seeds", SEED, many=True), default=[1],
                    help="packing seeds, one run each, e.g. 1,2,3")
-    p.add_argument("--parallel", type=option("--parallel", WORKERS), default=1, help="runs at a time")
+    p.add_argument("--workers", type=option("--workers", WORKERS), default=1, help="runs at a time (default 1)")
     p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786): the runs go to "
                    "its workers, as a study's cases do; default: local")
     scene_batch_options(p, 2, "where comparison.csv/.md and comparison/ go (default results)")

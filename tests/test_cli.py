@@ -12,7 +12,7 @@ from analysis.config import ROOT, ConfigError
 @pytest.mark.parametrize("argv, field", [
     (["study", "configs/studies/slip.toml", "--threads", "0"], "--threads"),
     (["compare", "--threads", "0"], "--threads"),
-    (["compare", "--parallel", "0"], "--parallel"),
+    (["compare", "--workers", "0"], "--workers"),
     (["compare", "--seeds", "1,x"], "--seeds"),
     (["compare", "--seeds", "-1"], "--seeds"),
     (["calibrate", "--soil", "clay", "--seeds", "1,abc"], "--seeds"),

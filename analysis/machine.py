@@ -1,0 +1,190 @@
+"""The machine's unknowns calibrated on clay, the other soils then predicted (seed 001 gives neither how deep the
+punches went nor the press sleeve's spring). No YADE: the runs are disk scenes (analysis/batch.py).
+
+    ./holes calibrate-machine [configs/studies/machine_clay.toml] [--no-run]
+
+The design is a study file (analysis/study.py) over the penetration P (`disk.penetration`) and the sleeve's
+spring rate (`sleeve.stiffness`), every case on clay. Each finished run is measured (analysis/measure.py) and
+kept with its grains in results/calibration/machine/runs/<id>/, so the fit can be made again anywhere; every
+hole is a row of results/calibration/machine.csv with its packing seed, P, spring rate, the mean vertical soil
+force on the disk W, and the hole's L2, L2_surface (= L2 + h1) and h1.
+
+The fit reads clay's field means only (configs/field/table3.csv), never loam's or sand's:
+  - P to the √2·a2 level's depth below the undisturbed surface, L2_surface, under each of §4.2's two readings
+    of the field's L2: "literal" (the field's L2 from the subsided level, so the target is its L2 + h1 = 75.6 mm)
+    and "surface" (the field's L2 from the undisturbed surface, target 62.1 mm);
+  - the spring rate to the field's h1 (13.5 mm).
+Over the run means, L2_surface = a0 + a1·P + a2·k and h1 = b0 + b1·P + b2·k (least squares; it needs two
+penetrations and two spring rates at least), then the two targets solved for (P, k). The interval resamples
+each run's holes (2,000 times) and fits again: within-run scatter only while each point has one packing.
+A value outside the bracketed range is flagged as extrapolated.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.batch import finished, run_all, say
+from analysis.config import ROOT, ConfigError
+from analysis.io import atomic_csv, atomic_write, read_table, stamp
+
+DESIGN = ROOT / "configs/studies/machine_clay.toml"
+P_KEY, K_KEY = "disk.penetration", "sleeve.stiffness"
+KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # kept with load.json (W): not the time series
+VARIANTS = {"literal": "the field's L2 read from the subsided level: L2_surface to its L2 + h1",
+            "surface": "the field's L2 read from the undisturbed surface: L2_surface to its L2"}
+
+
+def targets(field: pd.DataFrame) -> dict:
+    """Clay's field means, the only field numbers the fit reads: {"literal", "surface", "h1"} in mm."""
+    clay = field[(field.soil == "clay") & (field.run == "mean")]
+    if len(clay) != 1:
+        raise ConfigError("the field table has no single clay mean row (configs/field/table3.csv)")
+    row = clay.iloc[0]
+    return {"literal": float(row.L2 + row.h1), "surface": float(row.L2), "h1": float(row.h1)}
+
+
+def load_design(path) -> list:
+    """The design's cases, checked: every case on clay and with P and the spring rate given."""
+    from analysis.study import load_study
+    _, cases = load_study(path)
+    for c in cases:
+        if c.params["soil"]["name"] != "clay":
+            raise ConfigError(f"{path}: soil = {c.params['soil']['name']!r}: allowed 'clay' only (the machine is "
+                              "calibrated on clay; loam and sand are predictions)")
+        if P_KEY not in c.fields or K_KEY not in c.fields:
+            raise ConfigError(f"{path}: every case needs {P_KEY} and {K_KEY} (base or grid)")
+    return cases
+
+
+def vertical_load(folder: Path, lead_in: int, holes: int) -> float:
+    """W (N): the time-mean vertical force of the soil on the disk's punches and plates over the measured holes'
+    whole punch periods (from the lead-in's punch at its lowest to `holes` periods later), from the run's time
+    series: per record, each punch in the soil's punch force plus its plate's force along the axis, resolved
+    vertically; records with no punch in the soil add nothing."""
+    ts = pd.read_csv(folder / "timeseries.csv", comment="#")
+    if ts.empty:
+        return math.nan
+    dt = float(np.median(np.diff(np.unique(ts.t_s))))
+    first = ts[ts.punch == lead_in]
+    t0 = float(first.t_s.iloc[int(np.argmin(np.abs(first.phi_deg.to_numpy())))])
+    omega = float(ts.omega_rad_s.median())
+    period = 2 * math.pi / omega / int(ts.punch.max() + 1) if omega > 0 else math.nan
+    window = ts[(ts.t_s >= t0) & (ts.t_s < t0 + holes * period)]
+    fz = window.punch_fz_n + window.sleeve_force_n * np.cos(np.radians(window.phi_deg))
+    return float(fz.sum() * dt / (holes * period))
+
+
+def run_rows(case, folder: Path) -> pd.DataFrame:
+    """One row per measured hole of a finished case: its fields, W, and the hole's measures."""
+    from analysis import measure
+    summary = json.loads((folder / "summary.json").read_text())
+    holes = measure.run(folder, pictures=False) if (folder / "state.npz").exists() else read_table(folder / "holes.csv")
+    holes = holes.assign(L2_surface=holes.L2 + holes.h1)
+    w = json.loads((folder / "load.json").read_text())["W_n"] if (folder / "load.json").exists() else \
+        vertical_load(folder, summary.get("lead_in", 0), len(holes))
+    atomic_write(folder / "load.json", json.dumps({"W_n": w}))
+    return pd.DataFrame({"run": summary["id"], "seed": case.params["seed"], "P": case.fields[P_KEY],
+                         "stiffness": case.fields[K_KEY], "W_n": w, "hole": holes.hole, "found": holes.found,
+                         "L0": holes.L0, "L1": holes.L1, "L2": holes.L2, "L2_surface": holes.L2_surface,
+                         "h1": holes.h1, "residual_pct": 100 * abs(summary["energy_J"]["residual_fraction"]),
+                         "wall_s": summary["wall_s"]})
+
+
+def _solve(means: pd.DataFrame, want: dict, variant: str):
+    X = np.column_stack([np.ones(len(means)), means.P, means.stiffness])
+    a = np.linalg.lstsq(X, means.L2_surface.to_numpy(), rcond=None)[0]
+    b = np.linalg.lstsq(X, means.h1.to_numpy(), rcond=None)[0]
+    A = np.array([[a[1], a[2]], [b[1], b[2]]])
+    if abs(np.linalg.det(A)) < 1e-12:
+        return math.nan, math.nan, a, b
+    P, k = np.linalg.solve(A, [want[variant] - a[0], want["h1"] - b[0]])
+    return float(P), float(k), a, b
+
+
+def fit(rows: pd.DataFrame, want: dict, n_boot: int = 2000, seed: int = 0) -> pd.DataFrame:
+    """Per variant: the fitted P and spring rate with 95 % intervals (holes resampled within each run), the
+    two linear models' coefficients and residual SDs, and a status ("fitted", "extrapolated" or why not)."""
+    found = rows[rows.found.astype(bool)]
+    means = found.groupby("run").agg(P=("P", "first"), stiffness=("stiffness", "first"),
+                                     L2_surface=("L2_surface", "mean"), h1=("h1", "mean")).reset_index()
+    out = []
+    for variant, meaning in VARIANTS.items():
+        row = {"variant": variant, "meaning": meaning, "target_L2_surface": want[variant], "target_h1": want["h1"],
+               "runs": len(means), "holes": len(found)}
+        if means.P.nunique() < 2 or means.stiffness.nunique() < 2 or len(means) < 3:
+            out.append({**row, "status": f"not determined: {means.P.nunique()} penetration(s) and "
+                        f"{means.stiffness.nunique()} spring rate(s) in {len(means)} run(s); it needs 2, 2 and 3"})
+            continue
+        P, k, a, b = _solve(means, want, variant)
+        rng = np.random.default_rng(seed)
+        boot = []
+        groups = [g for _, g in found.groupby("run")]
+        for _ in range(n_boot):
+            res = pd.concat([g.iloc[rng.integers(0, len(g), len(g))] for g in groups])
+            m = res.groupby("run").agg(P=("P", "first"), stiffness=("stiffness", "first"),
+                                       L2_surface=("L2_surface", "mean"), h1=("h1", "mean"))
+            boot.append(_solve(m, want, variant)[:2])
+        boot = np.array(boot)
+        inside = means.P.min() <= P <= means.P.max() and means.stiffness.min() <= k <= means.stiffness.max()
+        X = np.column_stack([np.ones(len(means)), means.P, means.stiffness])
+        out.append({**row, "P": P, "P_lo": np.nanpercentile(boot[:, 0], 2.5), "P_hi": np.nanpercentile(boot[:, 0], 97.5),
+                    "stiffness": k, "stiffness_lo": np.nanpercentile(boot[:, 1], 2.5),
+                    "stiffness_hi": np.nanpercentile(boot[:, 1], 97.5),
+                    "dL2s_dP": a[1], "dL2s_dk": a[2], "dh1_dP": b[1], "dh1_dk": b[2],
+                    "L2s_resid_sd": float(np.std(means.L2_surface - X @ a, ddof=0)),
+                    "h1_resid_sd": float(np.std(means.h1 - X @ b, ddof=0)),
+                    "status": "fitted" if inside and k >= 0 else
+                    ("not physical: a negative spring rate" if k < 0 else "extrapolated beyond the bracket")})
+    return pd.DataFrame(out)
+
+
+def run(design=DESIGN, workers: int = 1, threads: int = 2, runs_dir=None, bed_dir=None, out=None,
+        no_run: bool = False, scheduler: str | None = None) -> int:
+    """Run the design's missing cases (unless `no_run`), measure and keep every finished one, write
+    machine.csv (every hole) and machine_fit.csv (both variants)."""
+    from analysis.bed_spec import BED_DIR
+    from analysis.batch import scene_args
+    from analysis.compare import field_table
+    cases = load_design(design)
+    want = targets(field_table())
+    runs_dir = Path(runs_dir or ROOT / "results/runs")
+    bed_dir = Path(bed_dir or BED_DIR)
+    out = Path(out or ROOT / "results/calibration")
+    kept = out / "machine" / "runs"
+    failures = []
+    if not no_run:
+        todo = [{"id": c.id, "tag": f"[machine {c.label()}]", "args": scene_args(c.fields)} for c in cases
+                if not (kept / c.id / "summary.json").exists()]
+        failures = run_all(todo, workers, threads, runs_dir, bed_dir, scheduler=scheduler, label="calibrate-machine")
+    tables = []
+    for c in cases:
+        if finished(runs_dir, c.id):
+            tables.append(run_rows(c, runs_dir / c.id))          # measured and W computed in the run's folder
+            for name in (*KEPT, "load.json"):
+                atomic_write(kept / c.id / name, (runs_dir / c.id / name).read_bytes())
+        elif (kept / c.id / "summary.json").exists():
+            say(f"calibrate-machine: {c.id} not on this machine; measured again from its kept grains")
+            tables.append(run_rows(c, kept / c.id))
+        else:
+            say(f"calibrate-machine: {c.id} ({c.label()}) has no finished run; left out")
+    command = f"./holes calibrate-machine {Path(design).relative_to(ROOT) if Path(design).is_absolute() else design}"
+    if not tables:
+        say("calibrate-machine: no case has finished; nothing written")
+        return 1
+    rows = pd.concat(tables, ignore_index=True)
+    atomic_csv(rows.round(3), out / "machine.csv", stamp(command) + "; one row per hole, mm, N, s; clay only")
+    table = fit(rows, want)
+    atomic_csv(table.round(3), out / "machine_fit.csv",
+               stamp(command) + f"; fitted on clay's field means only (L2 {want['surface']:g}, h1 {want['h1']:g} mm)")
+    for r in table.itertuples():
+        say(f"calibrate-machine {r.variant}: " + (r.status if str(r.status).startswith("not determined") else
+            f"P {r.P:.1f} mm [{r.P_lo:.1f}-{r.P_hi:.1f}], spring {r.stiffness:.2f} N/mm "
+            f"[{r.stiffness_lo:.2f}-{r.stiffness_hi:.2f}], {r.status}"))
+    for f in failures:
+        say(f"FAILED: {f.splitlines()[0]}")
+    return 1 if failures else 0

@@ -1,0 +1,52 @@
+"""The machine's calibration on clay (analysis/machine.py): the fit through the design's runs, what it refuses."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis import cli, machine
+from analysis.compare import field_table
+from analysis.config import ROOT, ConfigError
+
+
+def synthetic_rows(points, holes=2, noise=0.3, seed=1):
+    """Holes of runs at (P, k): L2_surface = 10 + 0.75 P - 1.5 k and h1 = 20 - 4 k + 0.02 P, with scatter."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for i, (P, k) in enumerate(points):
+        for h in range(holes):
+            rows.append({"run": f"r{i}", "P": P, "stiffness": k, "hole": h + 1, "found": True,
+                         "L2_surface": 10 + 0.75 * P - 1.5 * k + rng.normal(0, noise),
+                         "h1": 20 - 4 * k + 0.02 * P + rng.normal(0, noise)})
+    return pd.DataFrame(rows)
+
+
+def test_the_targets_are_clays_field_means_only():
+    want = machine.targets(field_table())
+    assert want == pytest.approx({"literal": 62.1 + 13.5, "surface": 62.1, "h1": 13.5})
+
+
+def test_the_fit_recovers_the_penetration_and_spring_of_a_known_model():
+    want = {"literal": 75.6, "surface": 62.1, "h1": 13.5}
+    table = machine.fit(synthetic_rows([(80, 0.5), (80, 2.5), (95, 0.5), (95, 2.5)]), want, n_boot=300)
+    for r in table.itertuples():
+        # the exact model's answer: solve 0.75 P - 1.5 k = target - 10 and 0.02 P - 4 k = 13.5 - 20
+        P, k = np.linalg.solve([[0.75, -1.5], [0.02, -4.0]], [want[r.variant] - 10, 13.5 - 20])
+        assert r.P == pytest.approx(P, abs=1.0) and r.stiffness == pytest.approx(k, abs=0.2)
+        assert r.P_lo <= r.P <= r.P_hi and r.stiffness_lo <= r.stiffness <= r.stiffness_hi
+    statuses = dict(zip(table.variant, table.status))
+    assert statuses["literal"] == "fitted"                          # P 91.6, k 2.1: inside the bracket
+    assert statuses["surface"] == "extrapolated beyond the bracket"  # P 73.5: below it
+
+
+def test_one_penetration_determines_nothing():
+    table = machine.fit(synthetic_rows([(80, 0.5), (80, 2.5)]), {"literal": 75.6, "surface": 62.1, "h1": 13.5})
+    assert table.status.str.startswith("not determined: 1 penetration(s) and 2 spring rate(s) in 2 run(s)").all()
+
+
+def test_a_design_on_another_soil_is_refused(tmp_path, capsys):
+    design = tmp_path / "loam.toml"
+    design.write_text((ROOT / "configs/studies/machine_clay.toml").read_text().replace('soil = "clay"', 'soil = "loam"'))
+    with pytest.raises(ConfigError, match="allowed 'clay' only"):
+        machine.load_design(design)
+    assert cli.main(["calibrate-machine", str(design), "--runs-dir", str(tmp_path / "runs")]) == 2
+    assert "allowed 'clay' only" in capsys.readouterr().err and not (tmp_path / "runs").exists()
