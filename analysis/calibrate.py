@@ -103,7 +103,7 @@ def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesio
         say(f"{tag}{' ' if tag else ''}reused {found[0].name}")
         return {**found[1], "reused": True}
     cmd = [sys.executable, str(ROOT / "scripts/cone.py"), "--soil", soil, "--resolution", resolution, "--size", size,
-           "--cone-scale", str(cone_scale), "--cohesion", str(cohesion), "--seed", str(seed), "--speed", str(speed),
+           "--cone-scale", str(cone_scale), "--cohesion", str(cohesion), "--seed", str(seed), "--cone-speed", str(speed),
            "--threads", str(threads), "--lateral", lateral, "--tiles", str(tiles)]
     tail = []
 
@@ -141,7 +141,7 @@ def run(soil: str, resolution: str, size: str, cone_scale: float, lo: float, hi:
     done = read_table(out) if out.exists() else pd.DataFrame()
     rows = [done] if len(done) else []
     note = stamp(f"./holes calibrate --soil {soil} --resolution {resolution} --size {size} --cone-scale {cone_scale:g} "
-                 f"--speed {speed:g} --seeds {','.join(map(str, seeds))} --lateral {lateral}")
+                 f"--cone-speed {speed:g} --seeds {','.join(map(str, seeds))} --lateral {lateral}")
     iteration = int(done.iteration.max()) if len(done) else 0
 
     def f(cohesion):

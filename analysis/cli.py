@@ -43,7 +43,7 @@ def cmd_calibrate(args) -> int:
     from analysis import calibrate
     lo, hi = args.cohesion_range
     try:
-        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, args.seeds, args.speed,
+        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, args.seeds, args.cone_speed,
                       args.threads, args.lateral, args.workers)
     except (ValueError, RuntimeError) as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
@@ -296,7 +296,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="bed length,width,depth in mm (default: wide enough to hold the cone's bond damage)")
     p.add_argument("--cone-scale", type=option("--cone-scale", CONE_FIELDS["cone_scale"]), default=3.0,
                    help="cone size / ASABE S313 size (default 3)")
-    p.add_argument("--speed", type=option("--speed", CONE_FIELDS["speed"]), default=0.5, help="cone speed, m/s (default 0.5)")
+    p.add_argument("--cone-speed", type=option("--cone-speed", CONE_FIELDS["speed"]), default=0.5,
+                   help="the cone's penetration speed, m/s (default 0.5)")
     p.add_argument("--seeds", type=option("--seeds", SEED, many=True), default=[1],
                    help="packing seeds; the cone index is their mean, e.g. 1,2,3")
     p.add_argument("--lateral", default="periodic", help="the beds' sides: periodic (no side walls) | walls")

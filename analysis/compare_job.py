@@ -138,8 +138,8 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
         old = read_table(combined)
         table = pd.concat([old[old.preset != preset], table], ignore_index=True)
     atomic_csv(table.round(3), combined, "one row per preset, soil and metric; see results/comparison.md")
-    mds = sorted((p for p in folder.glob("*.md") if p.name != "README.md"), key=lambda p: ["quick", "default", "paper"].index(p.stem)
-                 if p.stem in ("quick", "default", "paper") else 9)
+    mds = sorted((p for p in folder.glob("*.md") if p.name != "README.md"), key=lambda p: ["quick", "graded", "paper"].index(p.stem)
+                 if p.stem in ("quick", "graded", "paper") else 9)
     atomic_write(out / "comparison.md", "\n".join(p.read_text() for p in mds))
     compare.plot(table[table.preset == preset], holes, field, preset, folder, note)
     atomic_csv(compare.field_consistency(field, criteria["stated"]), folder / "field_consistency.csv",

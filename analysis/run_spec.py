@@ -99,7 +99,7 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--preset", default="quick", help="run preset of configs/presets.toml (default quick)")
     p.add_argument("--disk", default="configs/disk.toml", help="disk config (default configs/disk.toml)")
     p.add_argument("--slip", type=float, help="slip rate δ = 1 - r/R, [0, 0.9] (default: the disk config's, 0)")
-    p.add_argument("--speed", type=float, help="forward speed, km/h (default: the disk config's)")
+    p.add_argument("--speed-kmh", type=float, help="the disk's forward speed, km/h (default: the disk config's)")
     p.add_argument("--holes", type=int, help="holes to measure (default: the preset's)")
     p.add_argument("--lead-in", type=int, help="holes formed first and not measured (default: the preset's)")
     p.add_argument("--width", type=float, help="mm, overrides the preset")
@@ -138,7 +138,7 @@ def awake_arg(text: str) -> list:
 
 
 def plan_args(a: argparse.Namespace) -> dict:
-    return plan(a.soil, a.preset, a.disk, a.slip, a.speed, a.holes, a.seed, a.mode, a.width, a.depth,
+    return plan(a.soil, a.preset, a.disk, a.slip, a.speed_kmh, a.holes, a.seed, a.mode, a.width, a.depth,
                 parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool), a.resolution, a.dt_safety,
                 a.weight, a.lateral, a.awake)
 

@@ -173,17 +173,17 @@ def main(argv=None) -> int:
     from scripts import bed
     p = bed.bed_arguments(__doc__.splitlines()[0], "200,200,260", "holes cone")
     p.add_argument("--cone-scale", type=float, default=3.0, help="cone size / ASABE S313 size, [0.5, 20] (default 3)")
-    p.add_argument("--speed", type=float, default=0.3, help="m/s")
+    p.add_argument("--cone-speed", type=float, default=0.3, help="the cone's penetration speed, m/s (default 0.3)")
     p.add_argument("--cohesion", type=float, help="Pa; overrides the soil config's normal and shear cohesion")
     p.add_argument("--depth", type=float, default=CI_DEPTH * 1000, help="deepest base depth, mm (field: 150)")
     p.add_argument("--out", help="where the resistance CSV goes (default results/cone)")
     p.add_argument("--damage", action="store_true", help="also map the bonds the cone broke (<stem>-damage.csv)")
     a = p.parse_args(argv)
     try:
-        for key, value in (("cone_scale", a.cone_scale), ("speed", a.speed)):      # before the bed is settled
+        for key, value in (("cone_scale", a.cone_scale), ("speed", a.cone_speed)):  # before the bed is settled
             CONE_FIELDS[key].check(f"cone.{key}", value)
         CONE_DEPTH.check("cone.depth", a.depth)
-        summary = run(bed.bed_from_args(a), a.soil, a.cone_scale, a.speed, a.cohesion, a.threads, a.depth / 1000,
+        summary = run(bed.bed_from_args(a), a.soil, a.cone_scale, a.cone_speed, a.cohesion, a.threads, a.depth / 1000,
                       out_dir=Path(a.out) if a.out else None, overrides=parse_overrides(a.set), damage=a.damage)
     except (ConfigError, ValueError) as e:
         print(f"cone: {e}", file=sys.stderr)

@@ -202,7 +202,7 @@ def test_bed(tmp_path_factory):
 
 def cone(tmp_path, beds, cohesion):
     summary = scene("cone.py", "--soil", "clay", "--size", "100,100,100", "--bed-dir", str(beds), "--out", str(tmp_path),
-                    "--resolution", "test", "--cone-scale", "2", "--depth", "25", "--speed", "0.5",
+                    "--resolution", "test", "--cone-scale", "2", "--depth", "25", "--cone-speed", "0.5",
                     "--cohesion", str(cohesion), "--threads", "1")
     profile = read_table(tmp_path / f"{cone_result_name(summary['bed'], 2, 0.5, summary['cohesion_pa'])}.csv")
     return summary, profile

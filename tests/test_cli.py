@@ -18,7 +18,7 @@ from analysis.config import ROOT, ConfigError
     (["calibrate", "--soil", "clay", "--seeds", "1,abc"], "--seeds"),
     (["calibrate", "--soil", "clay", "--cohesion-range", "abc"], "--cohesion-range"),
     (["calibrate", "--soil", "clay", "--cohesion-range", "70000,30000"], "--cohesion-range"),
-    (["calibrate", "--soil", "clay", "--speed", "-1"], "--speed"),
+    (["calibrate", "--soil", "clay", "--cone-speed", "-1"], "--cone-speed"),
     (["cone-checks", "--workers", "0"], "--workers"),
     (["report", "/nonexistent"], "/nonexistent"),
     (["measure", "/nonexistent"], "/nonexistent"),
@@ -41,7 +41,7 @@ def test_a_scene_refuses_zero_threads_before_it_plans():
         plan_from_argv(["--soil", "clay", "--preset", "test", "--threads", "0"])
 
 
-@pytest.mark.parametrize("option, value", [("--speed", "-1"), ("--cone-scale", "0"), ("--depth", "0")])
+@pytest.mark.parametrize("option, value", [("--cone-speed", "-1"), ("--cone-scale", "0"), ("--depth", "0")])
 def test_the_cone_checks_its_own_numbers_before_settling_a_bed(tmp_path, option, value):
     r = subprocess.run([sys.executable, str(ROOT / "scripts/cone.py"), "--soil", "clay", "--bed-dir", str(tmp_path),
                         option, value], capture_output=True, text=True, timeout=120, cwd=ROOT)

@@ -115,10 +115,10 @@ def test_bad_graded_resolution_is_refused(tmp_path):
     assert load_resolution("graded").graded and not load_resolution("default").graded
     with pytest.raises(ConfigError, match=r"fine_width = 100 mm and fine_depth = 80 mm are out of range for a "
                                           r"120 x 120 mm section: allowed up to 80 and 100 mm"):
-        plan("clay", "default", resolution="graded", width=120)
+        plan("clay", "graded", resolution="graded", width=120)
     with pytest.raises(ConfigError, match=r"allowed with lateral = 'walls' only"):
-        plan("clay", "default", resolution="graded", lateral="periodic")
+        plan("clay", "graded", resolution="graded", lateral="periodic")
     with pytest.raises(ConfigError, match=r"fine_width = 100 mm is out of range: allowed > sleeve outer diameter 110 mm"):
-        plan("clay", "default", resolution="graded", tool={"sleeve.outer_diameter": 110.0})
-    assert plan("clay", "default", resolution="graded")["graded"]["coarse_radius"] == 0.008
+        plan("clay", "graded", resolution="graded", tool={"sleeve.outer_diameter": 110.0})
+    assert plan("clay", "graded", resolution="graded")["graded"]["coarse_radius"] == 0.008
     assert "graded" not in plan("clay", "quick")

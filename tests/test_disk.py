@@ -110,7 +110,7 @@ def test_weight_sets_the_penetration(side_scenes):
     assert heavy.returncode == 3 and "sank" in heavy.stderr and "floor" in heavy.stderr
 
 
-@pytest.mark.parametrize("args, field", [(["--slip", "1.5"], "slip"), (["--speed", "0"], "speed_kmh"),
+@pytest.mark.parametrize("args, field", [(["--slip", "1.5"], "slip"), (["--speed-kmh", "0"], "speed_kmh"),
                                          (["--mode", "dragged"], "mode"), (["--depth", "50"], "depth"),
                                          (["--weight", "100"], "weight"),
                                          (["--mode", "free", "--weight", "0.1"], "weight"),
