@@ -48,8 +48,13 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     profile, cuts = rings.run([run_dir], tmp_path / "rings")
     assert set(profile.groupby(["hole", "side"]).groups) == {(1, "-y"), (1, "+y"), (2, "-y"), (2, "+y")}
     summary = json.loads((run_dir / "summary.json").read_text())
+    # in the metrology's datum: the scene's level (highest grain top per 4-radius cell) stands above the median
+    # probed surface the holes are measured from, by a fraction of a grain
+    from analysis.measure import measure_run
+    offset = 1000 * summary["z_surface_m"] - measure_run(run_dir)[2]
+    assert 0 < offset < 2 * holes.grain_radius.iloc[0]
     assert list(profile.groupby("hole").plate_depth.first()) == pytest.approx(
-        [70.0 - 40.0 - t for t in summary["sleeve_max_travel_mm"][summary["lead_in"]:]], abs=0.01)
+        [70.0 - 40.0 - t - offset for t in summary["sleeve_max_travel_mm"][summary["lead_in"]:]], abs=0.01)
     assert profile.depth.notna().mean() > 0.8 and (tmp_path / "rings" / "rings.png").stat().st_size > 5000
     rule = cuts[cuts.cut_probes == 1.0].set_index("hole")          # the opening cut at the rule's level: the table
     assert np.allclose(rule[["L0", "L1", "L2"]], holes.set_index("hole")[["L0", "L1", "L2"]], atol=0.01)
