@@ -1,4 +1,5 @@
 """Hole metrology (seed 001 §4.2) on synthetic beds with carved holes of known shape, and the pass logic."""
+import functools
 import math
 
 import numpy as np
@@ -96,6 +97,7 @@ def test_h1_reads_the_pressed_ring_not_the_rim_heaved_round_it(r):
     assert np.allclose(depth[:, centres > 40 + r], -heave, atol=r)
 
 
+@functools.lru_cache(maxsize=None)
 def carved_with_shelf(r, shape, shelf):
     """A carved hole pressed 13 mm round (a stadium 92 x 50 mm with vertical walls 45 mm deep, or a cone 60 mm
     across at the ring whose diameter shrinks 1 mm per mm of depth), and optionally a shelf `shelf` mm below the
