@@ -156,6 +156,13 @@ def residual_pct(summaries: list[dict]) -> dict:
             if s.get("energy_J", {}).get("residual_fraction") is not None}
 
 
+def agreement(sim_mean: float, ci_lo: float, ci_hi: float, field_mean: float) -> dict:
+    """Whether a simulated mean reproduces the field's: within WITHIN_PCT of it, and the field mean inside the
+    simulated 95 % interval."""
+    return {"within_10pct": bool(abs(sim_mean - field_mean) <= WITHIN_PCT / 100 * field_mean),
+            "field_in_ci": bool(ci_lo <= field_mean <= ci_hi)}
+
+
 def with_l2_surface(holes: pd.DataFrame) -> pd.DataFrame:
     """The holes with L2_surface = L2 + h1, the depth of the √2·a2 level below the undisturbed surface (§4.2's
     other reading of L2), also for the holes of a kept holes.csv measured before the column existed."""
@@ -185,22 +192,20 @@ def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: di
                          "field_sd": float(fr[fc].std(ddof=1)), **s, "abs_error": s["sim_mean"] - mean,
                          "rel_error_pct": 100 * (s["sim_mean"] - mean) / mean,
                          "inside_field_range": bool(lo <= s["sim_mean"] <= hi),
-                         "within_10pct": bool(abs(s["sim_mean"] - mean) <= WITHIN_PCT / 100 * mean),
-                         "field_in_ci": bool(s["ci_lo"] <= mean <= s["ci_hi"]),
+                         **agreement(s["sim_mean"], s["ci_lo"], s["ci_hi"], mean),
                          "theory_table1": theory["table1"].get(fc, math.nan),
                          "theory_envelope": theory["envelope"].get(fc, math.nan), **energy})
         for reading, crit in criteria.items():
             p = pass_probability(h, crit)
-            lo, hi = float(fr.pass_percent.min()), float(fr.pass_percent.max())
-            rows.append({"soil": soil, "metric": f"pass_{reading}", "field_mean": float(fm.pass_percent),
+            lo, hi, mean = float(fr.pass_percent.min()), float(fr.pass_percent.max()), float(fm.pass_percent)
+            rows.append({"soil": soil, "metric": f"pass_{reading}", "field_mean": mean,
                          "field_min": lo, "field_max": hi, "field_sd": float(fr.pass_percent.std(ddof=1)),
                          "sim_mean": p["pass_pct"], "sim_sd": math.nan,
                          "ci_lo": p["pass_lo"], "ci_hi": p["pass_hi"], "n_holes": p["n"],
-                         "n_runs": h.run.nunique(), "abs_error": p["pass_pct"] - float(fm.pass_percent),
-                         "rel_error_pct": 100 * (p["pass_pct"] - float(fm.pass_percent)) / float(fm.pass_percent),
+                         "n_runs": h.run.nunique(), "abs_error": p["pass_pct"] - mean,
+                         "rel_error_pct": 100 * (p["pass_pct"] - mean) / mean,
                          "inside_field_range": bool(lo <= p["pass_pct"] <= hi),
-                         "within_10pct": bool(abs(p["pass_pct"] - float(fm.pass_percent)) <= WITHIN_PCT / 100 * float(fm.pass_percent)),
-                         "field_in_ci": bool(p["pass_lo"] <= float(fm.pass_percent) <= p["pass_hi"]), "theory_table1": math.nan,
+                         **agreement(p["pass_pct"], p["pass_lo"], p["pass_hi"], mean), "theory_table1": math.nan,
                          "theory_envelope": math.nan,
                          "passed_holes": p["passed"], **energy})
     return pd.DataFrame(rows)

@@ -34,7 +34,6 @@ from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
 DESIGN = ROOT / "configs/studies/machine_clay.toml"
 P_KEY, K_KEY = "disk.penetration", "sleeve.stiffness"
-KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # kept with load.json (W): not the time series
 VARIANTS = {"literal": "the field's L2 read from the subsided level: L2_surface to its L2 + h1",
             "surface": "the field's L2 read from the undisturbed surface: L2_surface to its L2"}
 
@@ -82,12 +81,15 @@ def vertical_load(folder: Path, lead_in: int, holes: int) -> float:
 def run_rows(case, folder: Path) -> pd.DataFrame:
     """One row per measured hole of a finished case: its fields, W, and the hole's measures."""
     from analysis import measure
+    from analysis.compare import with_l2_surface
     summary = json.loads((folder / "summary.json").read_text())
     holes = measure.run(folder, pictures=False) if (folder / "state.npz").exists() else read_table(folder / "holes.csv")
-    holes = holes.assign(L2_surface=holes.L2 + holes.h1)
-    w = json.loads((folder / "load.json").read_text())["W_n"] if (folder / "load.json").exists() else \
-        vertical_load(folder, summary.get("lead_in", 0), len(holes))
-    atomic_write(folder / "load.json", json.dumps({"W_n": w}))
+    holes = with_l2_surface(holes)
+    if (folder / "load.json").exists():
+        w = json.loads((folder / "load.json").read_text())["W_n"]
+    else:
+        w = vertical_load(folder, summary.get("lead_in", 0), len(holes))
+        atomic_write(folder / "load.json", json.dumps({"W_n": w}))
     return pd.DataFrame({"run": summary["id"], "seed": case.params["seed"], "P": case.fields[P_KEY],
                          "stiffness": case.fields[K_KEY], "W_n": w, "hole": holes.hole, "found": holes.found,
                          "L0": holes.L0, "L1": holes.L1, "L2": holes.L2, "L2_surface": holes.L2_surface,
@@ -150,6 +152,7 @@ def run(design=DESIGN, workers: int = 1, threads: int = 2, runs_dir=None, bed_di
     from analysis.bed_spec import BED_DIR
     from analysis.batch import scene_args
     from analysis.compare import field_table
+    from analysis.compare_job import keep
     cases = load_design(design)
     want = targets(field_table())
     runs_dir = Path(runs_dir or ROOT / "results/runs")
@@ -165,8 +168,8 @@ def run(design=DESIGN, workers: int = 1, threads: int = 2, runs_dir=None, bed_di
     for c in cases:
         if finished(runs_dir, c.id):
             tables.append(run_rows(c, runs_dir / c.id))          # measured and W computed in the run's folder
-            for name in (*KEPT, "load.json"):
-                atomic_write(kept / c.id / name, (runs_dir / c.id / name).read_bytes())
+            keep(runs_dir / c.id, kept / c.id)                    # compare_job's kept files, and W
+            atomic_write(kept / c.id / "load.json", (runs_dir / c.id / "load.json").read_bytes())
         elif (kept / c.id / "summary.json").exists():
             say(f"calibrate-machine: {c.id} not on this machine; measured again from its kept grains")
             tables.append(run_rows(c, kept / c.id))

@@ -147,8 +147,7 @@ def opening_lengths(S, seed, z_open: float, cut: float, step: float, probe: floa
     def read(line, centre):
         lo, hi = max(0, centre - n_reach), min(len(line), centre + n_reach + 1)
         part = np.where(np.isfinite(line[lo:hi]), line[lo:hi], np.inf)
-        a, b = wall_edges(line, lo + int(np.argmin(part)), z_open - cut, z_wall, window, rise)
-        return a, b
+        return wall_edges(line, lo + int(np.argmin(part)), z_open - cut, z_wall, window, rise)
 
     iy = np.nonzero(core)[1]
     rows = [int(round(iy.min() + f * (iy.max() - iy.min()))) for f in SECTIONS]
