@@ -20,7 +20,8 @@ _print_lock = threading.Lock()
 # A case's fields, named as in the seed and the configs, and the scripts/disk.py options that set them.
 PLAIN = {"soil": "--soil", "preset": "--preset", "seed": "--seed", "slip": "--slip", "speed_kmh": "--speed-kmh",
          "holes": "--holes", "lead_in": "--lead-in", "width": "--width", "depth": "--depth", "mode": "--mode",
-         "resolution": "--resolution", "dt_safety": "--dt-safety", "awake": "--awake"}
+         "resolution": "--resolution", "dt_safety": "--dt-safety", "awake": "--awake",
+         "weight": "--weight", "depth_stop": "--depth-stop", "disk_inertia": "--disk-inertia"}
 PREFIXED = {"disk": "--tool", "sleeve": "--tool", "soil": "--set"}
 
 

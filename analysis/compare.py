@@ -170,11 +170,12 @@ def with_l2_surface(holes: pd.DataFrame) -> pd.DataFrame:
 
 
 def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: dict[str, dict],
-            residuals: dict | None = None) -> pd.DataFrame:
+            residuals: dict | None = None, targets=()) -> pd.DataFrame:
     """One row per soil and metric (and per pass-criteria reading): field mean and range, simulated mean ±
     SD and interval, errors, inside-the-range, theory, and the largest energy residual of the soil's runs (%
     of the tools' work, `residuals` by run id; nan where no run's balance is known), flagged above
-    RESIDUAL_LIMIT."""
+    RESIDUAL_LIMIT. `targets`: the (soil, metric) pairs the machine was calibrated to (calibration_target:
+    reported, never counted as a prediction)."""
     rows = []
     residuals = residuals or {}
     holes = with_l2_surface(holes)
@@ -194,7 +195,8 @@ def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: di
                          "inside_field_range": bool(lo <= s["sim_mean"] <= hi),
                          **agreement(s["sim_mean"], s["ci_lo"], s["ci_hi"], mean),
                          "theory_table1": theory["table1"].get(fc, math.nan),
-                         "theory_envelope": theory["envelope"].get(fc, math.nan), **energy})
+                         "theory_envelope": theory["envelope"].get(fc, math.nan), **energy,
+                         "calibration_target": (soil, m) in set(targets)})
         for reading, crit in criteria.items():
             p = pass_probability(h, crit)
             lo, hi, mean = float(fr.pass_percent.min()), float(fr.pass_percent.max()), float(fm.pass_percent)
@@ -207,8 +209,37 @@ def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: di
                          "inside_field_range": bool(lo <= p["pass_pct"] <= hi),
                          **agreement(p["pass_pct"], p["pass_lo"], p["pass_hi"], mean), "theory_table1": math.nan,
                          "theory_envelope": math.nan,
-                         "passed_holes": p["passed"], **energy})
+                         "passed_holes": p["passed"], **energy, "calibration_target": False})
     return pd.DataFrame(rows)
+
+
+def position_trend(holes: pd.DataFrame, metrics=VALIDATED) -> pd.DataFrame:
+    """Are a run's holes exchangeable? Per run and metric, the least-squares slope of the metric against the
+    hole's place along the strip (mm per hole) with its 95 % interval (Student t, n - 2 degrees of freedom);
+    `trend` when the interval excludes 0. Runs with fewer than 4 measured holes are left out.
+
+    >>> h = pd.DataFrame({"run": ["a"] * 5, "soil": ["clay"] * 5, "hole": [1, 2, 3, 4, 5],
+    ...                   "L2": [60.0, 61.0, 60.5, 59.5, 60.0]})
+    >>> position_trend(h, ["L2"])[["metric", "n", "trend"]].values.tolist()
+    [['L2', 5, False]]
+    """
+    rows = []
+    data = with_l2_surface(holes) if {"L2", "h1"} <= set(holes) else holes
+    for (run, soil), g in data.groupby(["run", "soil"], sort=False):
+        for m in metrics:
+            v = g[["hole", m]].dropna()
+            n = len(v)
+            if n < 4:
+                continue
+            x, y = v.hole.to_numpy(float), v[m].to_numpy(float)
+            slope, icpt = np.polyfit(x, y, 1)
+            resid = y - (slope * x + icpt)
+            se = math.sqrt(float(resid @ resid) / (n - 2) / float(((x - x.mean()) ** 2).sum()))
+            half = t975(n - 2) * se
+            rows.append({"run": run, "soil": soil, "metric": m, "n": n, "slope_per_hole": slope,
+                         "slope_lo": slope - half, "slope_hi": slope + half, "trend": bool(abs(slope) > half)})
+    return pd.DataFrame(rows, columns=["run", "soil", "metric", "n", "slope_per_hole", "slope_lo", "slope_hi",
+                                       "trend"])
 
 
 def ordering(table: pd.DataFrame) -> dict:
@@ -230,20 +261,33 @@ def ordering(table: pd.DataFrame) -> dict:
 
 
 def markdown(table: pd.DataFrame, preset: str, note: str) -> str:
+    targets = (table["calibration_target"] if "calibration_target" in table else
+               pd.Series(False, index=table.index)).fillna(False).astype(bool)
     lines = [f"# Simulated holes against the field (seed 001 Table 3), preset `{preset}`", "", note, "",
              "| soil | metric | field mean ± SD [range] | simulated mean ± SD [95 % CI] (holes/runs) | error | in range | "
              f"within {WITHIN_PCT:g} % | field mean in CI | theory: Table 1 / envelope |", "|---|---|---|---|---|---|---|---|---|"]
-    for _, r in table.iterrows():
+    for i, r in table.iterrows():
         unit = "%" if r.metric.startswith("pass") else "mm"
         sd = "" if pd.isna(r.sim_sd) else f" ± {r.sim_sd:.1f}"
         extra = f", {int(r.passed_holes)}/{int(r.n_holes)} passed" if r.metric.startswith("pass") else ""
         theory = " / ".join("–" if pd.isna(v) else f"{v:.1f}" for v in (r.theory_table1, r.theory_envelope))
         fsd = f" ± {r.field_sd:.1f}" if "field_sd" in r and pd.notna(r.field_sd) else ""
         yes = {True: "yes", False: "no"}
-        lines.append(f"| {r.soil} | {r.metric} | {r.field_mean:.1f}{fsd} [{r.field_min:.1f}–{r.field_max:.1f}] | "
+        target = " (target)" if targets[i] else ""
+        lines.append(f"| {r.soil} | {r.metric}{target} | {r.field_mean:.1f}{fsd} [{r.field_min:.1f}–{r.field_max:.1f}] | "
                      f"{r.sim_mean:.1f}{sd} [{r.ci_lo:.1f}–{r.ci_hi:.1f}] ({int(r.n_holes)}/{int(r.n_runs)}{extra}) | "
                      f"{r.abs_error:+.1f} {unit} ({r.rel_error_pct:+.0f} %) | {yes[bool(r.inside_field_range)]} | "
                      f"{yes[bool(r.get('within_10pct', False))]} | {yes[bool(r.get('field_in_ci', False))]} | {theory} |")
+    if targets.any():
+        marked = ", ".join(f"{r.soil} {r.metric}" for r in table[targets].itertuples())
+        predicted = table[table.metric.isin(VALIDATED) & ~targets]
+        passes = table[table.metric.str.startswith("pass") & ~targets]
+        lines += ["", f"Calibration targets (the machine was fitted to them; not predictions, not counted): {marked}.",
+                  "", f"**Predicted: {int(predicted.within_10pct.sum())} of {len(predicted)} hole-metric means within "
+                  f"{WITHIN_PCT:g} % of the field mean** ({', '.join(VALIDATED)} per soil, the targets left out), "
+                  f"{int(predicted.field_in_ci.sum())} with the field mean inside the simulated 95 % interval, "
+                  f"{int(predicted.inside_field_range.sum())} inside the field's range; pass rates: "
+                  f"{int(passes.within_10pct.sum())} of {len(passes)} within {WITHIN_PCT:g} %."]
     judged = table[table.metric.isin(VALIDATED)]
     lines += ["", f"Of the {len(judged)} hole-metric means judged ({', '.join(VALIDATED)} per soil; C is set by the "
               f"prescribed kinematics and not counted): {int(judged.inside_field_range.sum())} inside the field's range, "

@@ -21,7 +21,8 @@ import pandas as pd
 
 from analysis import compare, measure
 from analysis.batch import finished, plan_case, run_all, say, scene_args
-from analysis.config import ROOT, load_criteria
+from analysis.config import ROOT, load_criteria, load_preset
+from analysis.machine import TARGET_METRICS
 from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
 KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # a run's files kept beside the table
@@ -74,7 +75,9 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
         return 1
     holes = pd.concat(tables, ignore_index=True)
     field = compare.field_table()
-    table = compare.compare(holes, field, compare.theory_values(), criteria, compare.residual_pct(summaries))
+    machine = load_preset(preset).machine          # a calibrated machine: its targets on clay are not predictions
+    targets = {("clay", m) for m in TARGET_METRICS[machine]} if machine else set()
+    table = compare.compare(holes, field, compare.theory_values(), criteria, compare.residual_pct(summaries), targets)
     table.insert(0, "preset", preset)
     command = (f"./holes compare --preset {preset} --soils {','.join(soils)} --seeds {','.join(map(str, seeds))}"
                + " --no-run" * no_run + " --kept" * kept_runs)
@@ -132,6 +135,15 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
         per_soil.append(f"{soil} field {fld.min():.1f}–{fld.max():.1f}, simulated {sim.iloc[0]:.1f}")
     md += (f"\nL2 + h1, the √2·a2 level below the undisturbed surface, against the rigid punch's deepest "
            f"{bound:.1f} mm: {'; '.join(per_soil)} mm (`comparison/{preset}-depth_reach.csv`).\n")
+    trend = compare.position_trend(holes)
+    if not trend.empty:
+        atomic_csv(trend.round(3), folder / f"{preset}-position_trend.csv", "per run and metric, the slope against "
+                   "the hole's place along the strip (mm per hole), 95 % interval; see analysis/compare.py position_trend")
+        found = trend[trend.trend]
+        md += (f"\nHoles along the strip (are a run's holes exchangeable?): of {len(trend)} run-metric slopes, "
+               f"{len(found)} with a 95 % interval excluding 0"
+               + (": " + ", ".join(f"{r.soil} {r.metric} {r.slope_per_hole:+.1f} mm per hole" for r in found.itertuples())
+                  if len(found) else "") + f" (`comparison/{preset}-position_trend.csv`).\n")
     atomic_write(folder / f"{preset}.md", md)
     combined = out / "comparison.csv"
     if combined.exists():

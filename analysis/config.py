@@ -294,6 +294,23 @@ class Preset:
     run_out: float
     dt_safety: float
     lateral: str
+    machine: str = ""             # a section of configs/machine.toml: the machine's calibrated values ("": the disk config's)
+    awake: tuple | None = None    # (behind, ahead) mm: only the soil round the tools moves (None: all of it)
+
+    def in_run(self) -> dict:
+        """The preset as a run's parameters hold it: `machine` and `awake` only when set, so the ids of runs of
+        presets without them stay as they were."""
+        d = as_dict(self)
+        for key in ("machine", "awake"):
+            if not d[key]:
+                d.pop(key)
+        if d.get("awake"):
+            d["awake"] = list(d["awake"])
+        return d
+
+
+PRESET_OPTIONAL = {"machine": Field(kind=str, meaning="a section of configs/machine.toml (the calibrated machine)"),
+                   "awake": Field(0.0, 1000.0, unit="mm", meaning="awake soil behind / ahead of the tools' reach")}
 
 
 def named_section(what: str, name: str, path, schema: dict, optional: dict | None = None) -> dict:
@@ -305,10 +322,43 @@ def named_section(what: str, name: str, path, schema: dict, optional: dict | Non
 
 
 def load_preset(name: str, path="configs/presets.toml") -> Preset:
-    v = named_section("preset", name, path, PRESET_FIELDS)
+    data = read_toml(path)
+    if name not in data:
+        raise ConfigError(f"preset = {name!r}: allowed {', '.join(data)}")
+    table = dict(data[name])
+    extra = {k: table.pop(k) for k in PRESET_OPTIONAL if k in table}
+    v = check_table(f"{path}: {name}", table, PRESET_FIELDS)
     load_resolution(v["resolution"])
     check_lateral(v["lateral"], f"{path}: {name}.lateral")
+    if "machine" in extra:
+        v["machine"] = PRESET_OPTIONAL["machine"].check(f"{path}: {name}.machine", extra["machine"])
+        load_machine(v["machine"])
+    if "awake" in extra:
+        a = extra["awake"]
+        if not isinstance(a, list) or len(a) != 2:
+            raise ConfigError(f"{path}: {name}.awake = {a!r}: allowed two lengths [BEHIND, AHEAD] in mm")
+        v["awake"] = tuple(PRESET_OPTIONAL["awake"].check(f"{path}: {name}.awake.{side}", x)
+                           for side, x in zip(("behind", "ahead"), a))
     return Preset(name, **v)
+
+
+MACHINE = "configs/machine.toml"
+
+
+def load_machine(name: str, path=MACHINE) -> dict:
+    """The machine's calibrated values `name` (a section of configs/machine.toml, written by `./holes
+    calibrate-machine`): {"tool": {"disk.penetration": ..., "sleeve.stiffness": ..., ...}, "source": ...}."""
+    data = read_toml(path)
+    if name not in data:
+        raise ConfigError(f"machine = {name!r}: allowed {', '.join(data) or 'none (no machine calibrated yet)'}")
+    section = dict(data[name])
+    tool = section.pop("tool", None)
+    if not isinstance(tool, dict) or not tool:
+        raise ConfigError(f"{path}: [{name}.tool] is missing: the calibrated disk.<field> / sleeve.<field> values")
+    for key, value in tool.items():
+        if key.partition(".")[0] not in ("disk", "sleeve"):
+            raise ConfigError(f"{path}: {name}.tool.{key}: allowed disk.<field> or sleeve.<field>")
+    return {"tool": tool, **section}
 
 
 def preset_with(preset: Preset, changes: dict) -> Preset:

@@ -119,9 +119,11 @@ def layout(disk: Disk, speed_kmh: float, slip: float, holes: int, lead_in: int =
                           f"({hole_rear + hole_front:.1f} mm) plus the {gap:g} mm gap; allowed: slip or N smaller")
     hole_x = tuple(float(x_axis0 + adv * (phi0 + k * pitch)) for k in range(lead_in + holes))
     t_end = (phi0 + (len(hole_x) - 1) * pitch - phi_out + np.radians(STOP_MARGIN_DEG)) / omega
-    # at t_end punch k is at phi_end + k·pitch; its front so far is its swept front over the angles it has passed
+    # at t_end the k-th pass of a punch (punch k mod N; k = 0 is punch 0's first) is at phi_end + k·pitch; its
+    # front so far is its swept front over the angles it has passed. Passes past the last hole's are the next
+    # punches', entering; a strip longer than N holes has punches on their second pass.
     phi_end = phi0 - omega * t_end
-    passed = [touching & (phis >= phi_end + k * pitch) for k in range(disk.N)]
+    passed = [touching & (phis >= phi_end + k * pitch) for k in range(len(hole_x) + disk.N)]
     tool_front = max(float(x_axis0 + adv * (phi0 + k * pitch) + np.max(swept_front[m]))
                      for k, m in enumerate(passed) if m.any())
     length = max(hole_x[-1] + hole_front, tool_front) + run_out

@@ -29,11 +29,13 @@ import numpy as np
 import pandas as pd
 
 from analysis.batch import finished, run_all, say
-from analysis.config import ROOT, ConfigError
+from analysis.config import MACHINE, ROOT, ConfigError
 from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
 DESIGN = ROOT / "configs/studies/machine_clay.toml"
 P_KEY, K_KEY = "disk.penetration", "sleeve.stiffness"
+# the comparison's metrics each variant is fitted to on clay (L2 read literally is L2_surface - h1)
+TARGET_METRICS = {"literal": ("L2", "h1"), "surface": ("L2_surface", "h1")}
 VARIANTS = {"literal": "the field's L2 read from the subsided level: L2_surface to its L2 + h1",
             "surface": "the field's L2 read from the undisturbed surface: L2_surface to its L2"}
 
@@ -69,9 +71,11 @@ def vertical_load(folder: Path, lead_in: int, holes: int) -> float:
     if ts.empty:
         return math.nan
     dt = float(np.median(np.diff(np.unique(ts.t_s))))
-    first = ts[ts.punch == lead_in]
-    t0 = float(first.t_s.iloc[int(np.argmin(np.abs(first.phi_deg.to_numpy())))])
     omega = float(ts.omega_rad_s.median())
+    first = ts[ts.punch == lead_in % int(ts.punch.max() + 1)]   # the punch of the first measured hole ...
+    if omega > 0:                                       # ... on its first pass: a punch forms every N-th hole
+        first = first[first.t_s < first.t_s.iloc[0] + math.pi / omega]
+    t0 = float(first.t_s.iloc[int(np.argmin(np.abs(first.phi_deg.to_numpy())))])
     period = 2 * math.pi / omega / int(ts.punch.max() + 1) if omega > 0 else math.nan
     window = ts[(ts.t_s >= t0) & (ts.t_s < t0 + holes * period)]
     fz = window.punch_fz_n + window.sleeve_force_n * np.cos(np.radians(window.phi_deg))
@@ -146,9 +150,10 @@ def fit(rows: pd.DataFrame, want: dict, n_boot: int = 2000, seed: int = 0) -> pd
 
 
 def run(design=DESIGN, workers: int = 1, threads: int = 2, runs_dir=None, bed_dir=None, out=None,
-        no_run: bool = False, scheduler: str | None = None) -> int:
+        no_run: bool = False, scheduler: str | None = None, machine_path=None) -> int:
     """Run the design's missing cases (unless `no_run`), measure and keep every finished one, write
-    machine.csv (every hole) and machine_fit.csv (both variants)."""
+    machine.csv (every hole) and machine_fit.csv (both variants), and each fitted variant's values to
+    configs/machine.toml (`machine_path`), where a preset's `machine` key reads them."""
     from analysis.bed_spec import BED_DIR
     from analysis.batch import scene_args
     from analysis.compare import field_table
@@ -184,6 +189,14 @@ def run(design=DESIGN, workers: int = 1, threads: int = 2, runs_dir=None, bed_di
     table = fit(rows, want)
     atomic_csv(table.round(3), out / "machine_fit.csv",
                stamp(command) + f"; fitted on clay's field means only (L2 {want['surface']:g}, h1 {want['h1']:g} mm)")
+    machine_path = Path(machine_path) if machine_path else (ROOT / MACHINE if out == ROOT / "results/calibration"
+                                                            else out / "machine.toml")
+    written = write_machine(table, cases, machine_path, stamp(command), want)
+    if written:
+        say(f"calibrate-machine: {', '.join(written)} written to {machine_path}")
+        if machine_path == ROOT / MACHINE:              # the parameter page shows the configs' values
+            from analysis import params_doc
+            params_doc.write()
     for r in table.itertuples():
         say(f"calibrate-machine {r.variant}: " + (r.status if str(r.status).startswith("not determined") else
             f"P {r.P:.1f} mm [{r.P_lo:.1f}-{r.P_hi:.1f}], spring {r.stiffness:.2f} N/mm "
@@ -191,3 +204,34 @@ def run(design=DESIGN, workers: int = 1, threads: int = 2, runs_dir=None, bed_di
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures else 0
+
+
+def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want: dict) -> list[str]:
+    """Each variant with a fitted P and spring rate as a section of configs/machine.toml: the design's other
+    tool fields (the sleeve's rest, travel, preload: the same in every case) and the fitted two, rounded to
+    0.1 mm and 0.01 N/mm, with the fit's status, intervals and source. Returns the variants written."""
+    tool = {}
+    for key in cases[0].fields:
+        if key.partition(".")[0] in ("disk", "sleeve") and key not in (P_KEY, K_KEY):
+            values = {c.fields[key] for c in cases}
+            if len(values) == 1:
+                tool[key] = float(values.pop())
+    lines = [f"# {note}", "# The machine's unknowns calibrated on clay (seed 001 Table 3, clay's means only), one section "
+             "per reading of §4.2's L2;", "# a preset's `machine` key names one. Written by the command above: "
+             "do not edit by hand.", ""]
+    written = []
+    for r in table.itertuples():
+        if not (math.isfinite(getattr(r, "P", math.nan)) and math.isfinite(getattr(r, "stiffness", math.nan))
+                and r.stiffness > 0):
+            continue
+        values = {**tool, P_KEY: round(float(r.P), 1), K_KEY: round(float(r.stiffness), 2)}
+        lines += [f"[{r.variant}]", f'meaning = "{r.meaning}"', f'status = "{r.status}"',
+                  f'source = "calibrated on clay, seed 001 Table 3 (L2 {want["surface"]:g}, h1 {want["h1"]:g} mm): '
+                  f'results/calibration/machine_fit.csv, {r.runs} runs, {r.holes} holes"',
+                  f"P_interval_mm = [{r.P_lo:.1f}, {r.P_hi:.1f}]",
+                  f"stiffness_interval_n_per_mm = [{r.stiffness_lo:.2f}, {r.stiffness_hi:.2f}]",
+                  f"[{r.variant}.tool]", *(f'"{k}" = {v:g}' for k, v in values.items()), ""]
+        written.append(r.variant)
+    if written:
+        atomic_write(path, "\n".join(lines))
+    return written

@@ -7,7 +7,7 @@ it cannot drift from them (`./holes params` writes it; tests/test_config.py chec
 """
 from __future__ import annotations
 
-from analysis.config import (DISK_FIELDS, PRESET_FIELDS, RESOLUTION_FIELDS, ROOT, SEED, SEEDLING_FIELDS, SLEEVE_FIELDS,
+from analysis.config import (DISK_FIELDS, PRESET_FIELDS, PRESET_OPTIONAL, RESOLUTION_FIELDS, ROOT, SEED, SEEDLING_FIELDS, SLEEVE_FIELDS,
                              SOIL_FIELDS, SOILS, Field, read_toml)
 
 PATH = ROOT / "configs/README.md"
@@ -62,6 +62,20 @@ def run_fields() -> list[str]:
     return rows
 
 
+def machine_rows() -> list[str]:
+    """One row per calibrated variant: its tool values, status and source (configs/machine.toml)."""
+    path = ROOT / "configs/machine.toml"
+    if not path.exists():
+        return ["No machine calibrated yet."]
+    data = read_toml(path)
+    keys = sorted({k for v in data.values() for k in v.get("tool", {})})
+    rows = ["| machine | " + " | ".join(f"`{k}`" for k in keys) + " | status | source |", "|" + "---|" * (len(keys) + 3)]
+    for name, v in data.items():
+        rows.append(f"| {name} | " + " | ".join(cell(v["tool"].get(k, "")) for k in keys)
+                    + f" | {cell(v.get('status', ''))} | {cell(v.get('source', ''))} |")
+    return rows
+
+
 def render() -> str:
     """The whole page, as markdown."""
     disk = read_toml(ROOT / "configs/disk.toml")
@@ -76,7 +90,10 @@ def render() -> str:
            "Cross-checks: `outer_diameter` > D; h < `rest_from_tip` < L3; `rest_from_tip` + `travel` ≤ L3.", "",
            *table(SLEEVE_FIELDS, {"value": disk["sleeve"]}, disk.get("sleeve_source", {})), "",
            "## `presets.toml`: run presets (`--preset NAME`)", "",
-           *table(PRESET_FIELDS, presets), "",
+           *table({**PRESET_FIELDS, **PRESET_OPTIONAL}, presets), "",
+           "## `machine.toml`: the machine calibrated on clay (written by `./holes calibrate-machine`)", "",
+           "A preset's `machine` names a section; its values replace `disk.toml`'s in that preset's runs.", "",
+           *machine_rows(), "",
            "## `resolutions.toml`: particle sizes (SI units)", "",
            *table(RESOLUTION_FIELDS, resolutions), "",
            "## `soils/<soil>.toml` [soil]: contact physics (SI units)", "",

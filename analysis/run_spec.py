@@ -10,7 +10,7 @@ import json
 import math
 
 from analysis.bed_spec import BED_DIR, check_graded
-from analysis.config import (SEED, SLIP, THREADS, CommandLine, ConfigError, Field, as_dict, load_disk, load_preset, load_resolution,
+from analysis.config import (SEED, SLIP, THREADS, CommandLine, ConfigError, Field, as_dict, load_disk, load_machine, load_preset, load_resolution,
                              load_sleeve, load_soil, option, parse_overrides, preset_with, soil_with, tool_with)
 from analysis.kinematics import TIP_SPHERE_RATIO, layout
 
@@ -19,7 +19,9 @@ RUN_FIELDS = {"slip": SLIP,
               "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
               "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)"),
               "weight": Field(1.0, 5000.0, unit="N", meaning="load the disk carries (free mode)"),
-              "awake": Field(0.0, 1000.0, unit="mm", meaning="awake soil behind / ahead of the tools' reach")}
+              "awake": Field(0.0, 1000.0, unit="mm", meaning="awake soil behind / ahead of the tools' reach"),
+              "depth_stop": Field(1.0, 500.0, unit="mm", meaning="deepest tip depth the limit device lets the disk "
+                                  "sink to (free mode with a weight)")}
 MODES = ("prescribed", "free")
 
 
@@ -33,14 +35,15 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
          width: float | None = None, depth: float | None = None, overrides: dict | None = None,
          disk_inertia: float = 0.05, lead_in: int | None = None, tool: dict | None = None,
          resolution: str | None = None, dt_safety: float | None = None, weight: float | None = None,
-         lateral: str | None = None, awake: tuple | list | None = None) -> dict:
+         lateral: str | None = None, awake: tuple | list | None = None, depth_stop: float | None = None) -> dict:
     """Every parameter of the run, checked, before YADE starts."""
     if mode not in MODES:
         raise ConfigError(f"mode = {mode!r}: allowed {', '.join(MODES)}")
     seed = SEED.check("run.seed", seed)
-    disk = load_disk(disk_path)
-    disk, sleeve = tool_with(disk, load_sleeve(disk_path, disk), tool or {})
     preset = load_preset(preset_name)
+    machine = load_machine(preset.machine)["tool"] if preset.machine else {}
+    disk = load_disk(disk_path)
+    disk, sleeve = tool_with(disk, load_sleeve(disk_path, disk), {**machine, **(tool or {})})
     preset = preset_with(preset, {k: v for k, v in (("width", width), ("depth", depth), ("holes", holes),
                                                      ("lead_in", lead_in), ("resolution", resolution),
                                                      ("dt_safety", dt_safety), ("lateral", lateral)) if v is not None})
@@ -53,6 +56,7 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
             raise ConfigError(f"run.weight = {weight:g} N needs mode = 'free': allowed only where the soil drives "
                               "the disk")
         RUN_FIELDS["weight"].check("run.weight", weight)
+    awake = preset.awake if awake is None else awake
     if awake is not None:
         if len(awake) != 2:
             raise ConfigError(f"run.awake = {awake!r}: allowed two lengths BEHIND,AHEAD in mm")
@@ -70,7 +74,7 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
                           f"{sleeve.outer_diameter:g} mm")
     lay = layout(disk, speed_kmh, slip, preset.holes, preset.lead_in, preset.run_out,
                  tip_sphere=TIP_SPHERE_RATIO * disk.d)
-    params = {"soil": as_dict(soil), "disk": as_dict(disk), "sleeve": as_dict(sleeve), "preset": as_dict(preset),
+    params = {"soil": as_dict(soil), "disk": as_dict(disk), "sleeve": as_dict(sleeve), "preset": preset.in_run(),
               "slip": slip, "speed_kmh": speed_kmh, "seed": seed, "mode": mode, "disk_inertia": disk_inertia,
               "layout": {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(lay).items()},
               "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}
@@ -82,6 +86,15 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
         check_graded(res, [x / 1000 for x in params["bed_size_mm"]], preset.lateral)
     if awake is not None:                   # likewise
         params["awake_mm"] = awake
+    if depth_stop is not None:              # likewise
+        if weight is None:
+            raise ConfigError(f"run.depth_stop = {depth_stop:g} mm needs a weight (free mode): allowed only where "
+                              "the disk can sink")
+        lo, hi = disk.penetration, preset.depth - 20
+        if not lo <= RUN_FIELDS["depth_stop"].check("run.depth_stop", depth_stop) <= hi:
+            raise ConfigError(f"run.depth_stop = {depth_stop:g} is out of range: allowed [{lo:g}, {hi:g}] mm (from "
+                              "the penetration the disk starts at to 20 mm above the strip's floor)")
+        params["depth_stop_mm"] = depth_stop
     # the layout is in the id, rounded (the last bits of its trigonometry may differ between machines), so a
     # change of the geometry's code is a new run, never a reused folder
     rounded = {k: ([round(x, 6) for x in v] if isinstance(v, list) else round(v, 6))
@@ -110,6 +123,9 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--mode", default="prescribed", help="prescribed | free")
     p.add_argument("--disk-inertia", type=float, default=0.05, help="kg·m², free mode")
     p.add_argument("--weight", type=float, help="N, free mode: the axis sinks under this load (default: held)")
+    p.add_argument("--depth-stop", type=float, metavar="MM",
+                   help="mm, free mode with --weight: the limit device (seed 001 §1.2) stops the disk sinking once "
+                   "its tips reach this depth (default: no stop)")
     p.add_argument("--awake", type=awake_arg, metavar="BEHIND,AHEAD",
                    help="mm: only the soil from BEHIND behind the tools' reach to AHEAD ahead of it moves; the rest "
                    "sleeps (default: all of it moves)")
@@ -140,7 +156,7 @@ def awake_arg(text: str) -> list:
 def plan_args(a: argparse.Namespace) -> dict:
     return plan(a.soil, a.preset, a.disk, a.slip, a.speed_kmh, a.holes, a.seed, a.mode, a.width, a.depth,
                 parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool), a.resolution, a.dt_safety,
-                a.weight, a.lateral, a.awake)
+                a.weight, a.lateral, a.awake, a.depth_stop)
 
 
 def plan_from_argv(argv: list[str]) -> dict:

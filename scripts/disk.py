@@ -160,6 +160,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     weight = params.get("weight")
     awake = params.get("awake_mm")          # [behind, ahead] mm: the soil awake round the tools (None: all of it)
     floor_room = (preset["depth"] - disk.penetration) * mm - 2 * meta["radius"] if weight else math.inf
+    # the limit device (seed 001 §1.2): the axis sinks no lower than where the tips reach depth_stop
+    z_stop = -(params["depth_stop_mm"] - disk.penetration) * mm if params.get("depth_stop_mm") else -math.inf
     t_load = lay.phi0 / omega               # W grows from 0 while the first punch goes down: no drop onto one tip
 
     def angle(k):
@@ -206,6 +208,9 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
         if weight:                          # (W/g) dv_z/dt = F_z - W(t): the soil carries the disk
             f_z = utils.sumForces(tool_ids, z_dir)
             st["vz"] += (f_z - weight * min(1.0, t / t_load)) * g / weight * dt
+            if st["z"] + st["vz"] * dt < z_stop:            # on the stop: it takes what the soil does not carry
+                st["vz"] = (z_stop - st["z"]) / dt
+                st["on_stop_steps"] = st.get("on_stop_steps", 0) + 1
             sink.velocity = st["vz"]
             st["z"] += st["vz"] * dt
             st["z_min"], st["z_max"] = min(st["z_min"], st["z"]), max(st["z_max"], st["z"])
@@ -361,7 +366,10 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                "slip_out": 1 - v / (st["theta"] / O.time * disk.R * mm) if O.time > 0 else None,
                "slip_holes": slip_between_holes([math.radians(r[3]) for r in st["rows"]], [r[1] / mm for r in st["rows"]],
                                                 lay.phi0, lay.pitch, disk.R, len(lay.hole_x)),
-               "axis_sink_mm": ({"final": -1000 * st["z"], "max": -1000 * st["z_min"], "min": -1000 * st["z_max"]}
+               "axis_sink_mm": ({"final": -1000 * st["z"], "max": -1000 * st["z_min"], "min": -1000 * st["z_max"],
+                                 # the share of the steps the disk sat on the limit device (depth_stop)
+                                 **({"on_stop_fraction": st.get("on_stop_steps", 0) / max(O.iter, 1)}
+                                    if params.get("depth_stop_mm") else {})}
                                 if weight else None),   # below the prescribed height; < 0: above it
                "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool_ids), "energy_J": energy,
                "awake": ({"behind_mm": awake[0], "ahead_mm": awake[1],

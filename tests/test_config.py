@@ -2,7 +2,7 @@
 import pytest
 
 from analysis import cli, params_doc
-from analysis.config import (DISK_FIELDS, PRESET_FIELDS, SLEEVE_FIELDS, SOIL_FIELDS, ConfigError, load_disk,
+from analysis.config import (DISK_FIELDS, PRESET_FIELDS, ROOT, SLEEVE_FIELDS, SOIL_FIELDS, ConfigError, load_disk,
                              load_seedling)
 
 
@@ -122,3 +122,18 @@ def test_bad_graded_resolution_is_refused(tmp_path):
         plan("clay", "graded", resolution="graded", tool={"sleeve.outer_diameter": 110.0})
     assert plan("clay", "graded", resolution="graded")["graded"]["coarse_radius"] == 0.008
     assert "graded" not in plan("clay", "quick")
+
+
+@pytest.mark.parametrize("extra,pattern", [('machine = "tuned"', "machine = 'tuned': allowed literal, surface"),
+                                           ("awake = [60.0]", r"awake = \[60.0\]: allowed two lengths"),
+                                           ("awake = [60.0, -5.0]", r"awake.ahead = -5.0 is out of range"),
+                                           ("machine = 3", "machine = 3: must be a string")])
+def test_a_presets_machine_and_awake_are_checked(tmp_path, extra, pattern):
+    from analysis.config import load_preset
+    text = (ROOT / "configs/presets.toml").read_text()
+    start = text.index("[quick]")
+    section = text[start:text.index("\n[", start + 1)]
+    path = tmp_path / "presets.toml"
+    path.write_text(section + "\n" + extra + "\n")
+    with pytest.raises(ConfigError, match=pattern):
+        load_preset("quick", path)

@@ -115,7 +115,9 @@ def test_weight_sets_the_penetration(side_scenes):
                                          (["--weight", "100"], "weight"),
                                          (["--mode", "free", "--weight", "0.1"], "weight"),
                                          (["--lateral", "open"], "lateral"), (["--awake", "60"], "awake"),
-                                         (["--awake=-5,100"], "awake")])
+                                         (["--awake=-5,100"], "awake"), (["--depth-stop", "75"], "depth_stop"),
+                                         (["--mode", "free", "--weight", "100", "--depth-stop", "65"], "depth_stop"),
+                                         (["--mode", "free", "--weight", "100", "--depth-stop", "90"], "depth_stop")])
 def test_bad_run_input_names_the_field(args, field):
     from analysis.run_spec import plan_from_argv
     with pytest.raises(ConfigError) as e:

@@ -23,7 +23,8 @@ def test_holes_fall_at_the_theoretical_spacing_inside_the_strip(slip):
     assert lay.hole_rear + lay.hole_front == pytest.approx(hi[0] - lo[0], abs=3.0)
 
 
-@pytest.mark.parametrize("preset,slip", [("quick", 0.0), ("paper", 0.0), ("test", 0.0), ("paper", 0.2)])
+@pytest.mark.parametrize("preset,slip", [("quick", 0.0), ("paper", 0.0), ("test", 0.0), ("paper", 0.2),
+                                         ("validation_surface", 0.0), ("validation_surface", 0.2)])
 def test_every_punch_in_the_soil_before_the_end_stays_inside_the_bed(preset, slip):
     """The punch after the last hole enters while that hole's punch is still in the soil; the bed must hold it
     (it once swept through the end wall and crushed grains against it). Checked on a densified outline, punch by
@@ -35,14 +36,14 @@ def test_every_punch_in_the_soil_before_the_end_stays_inside_the_bed(preset, sli
     dense = (out[None] + f * (np.roll(out, -1, axis=0)[None] - out[None])).reshape(-1, 2)
     t = np.linspace(0.0, lay.t_end, 3000)
     front = []
-    for k in range(DISK.N):
+    for k in range(len(lay.hole_x) + DISK.N):       # the k-th pass down, punch k mod N's (past N: round again)
         phi = lay.phi0 + k * lay.pitch - lay.omega * t
         x, z = to_axis_frame(dense, phi)
-        x = (x + (lay.x_axis0 + lay.speed * t)[:, None])[(z < -lay.H0) & (np.cos(phi) > 0)[:, None]]
+        x = (x + (lay.x_axis0 + lay.speed * t)[:, None])[(z < -lay.H0) & (np.abs(phi) < np.pi / 2)[:, None]]
         if x.size == 0:
             continue
         # the punch that trails punch 0 is in the soil at t = 0 behind the bed's start and never reaches it
-        assert x.min() >= 0.0 or x.max() <= -5.0, f"punch {k} crosses the bed's start"
+        assert x.min() >= 0.0 or x.max() <= -5.0, f"pass {k} crosses the bed's start"
         front.append(x.max())
     assert max(front) <= lay.length - p.run_out + 0.5               # ahead: run_out of soil past every punch
     assert max(front) > lay.hole_x[-1] + lay.hole_front + 50.0      # the next punch is in the soil at the end
@@ -69,6 +70,15 @@ def test_blunt_tip_reaches_the_penetration_and_the_outline_is_closed():
 def test_overlapping_holes_are_a_clear_error():
     with pytest.raises(ConfigError, match="holes overlap"):
         layout(dataclasses.replace(DISK, N=12), 1.9, 0.0, 3)
+
+
+@pytest.mark.parametrize("slip", [0.0, 0.2])
+def test_each_hole_more_lengthens_the_strip_by_one_spacing(slip):
+    """Past N holes the punches go round again: the strip still grows by exactly one spacing C per hole (it once
+    stopped counting the next punch's front after the first revolution, and an 8-hole strip was 150 mm short)."""
+    lengths = [layout(DISK, 1.9, slip, n, lead_in=1, run_out=100.0, tip_sphere=5.0).length for n in range(1, 14)]
+    # within the 0.05° angular grid of layout's sweep (0.04 mm of front at R)
+    assert np.diff(lengths) == pytest.approx([hole_spacing(DISK, slip)] * 12, abs=0.1)
 
 
 def test_sleeve_and_preset_configs_are_checked():

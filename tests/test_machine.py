@@ -50,3 +50,39 @@ def test_a_design_on_another_soil_is_refused(tmp_path, capsys):
         machine.load_design(design)
     assert cli.main(["calibrate-machine", str(design), "--runs-dir", str(tmp_path / "runs")]) == 2
     assert "allowed 'clay' only" in capsys.readouterr().err and not (tmp_path / "runs").exists()
+
+
+def test_the_fitted_values_are_written_where_a_preset_reads_them(tmp_path):
+    """calibrate-machine's values reach the runs through configs/machine.toml: each variant with a fit is a
+    section a preset's `machine` key names; one the design cannot determine is not written."""
+    from analysis.config import load_machine
+    from analysis.study import load_study
+    _, cases = load_study(ROOT / "configs/studies/machine_clay.toml")
+    want = {"literal": 75.6, "surface": 62.1, "h1": 13.5}
+    table = machine.fit(synthetic_rows([(80, 0.5), (80, 2.5), (95, 0.5), (95, 2.5)]), want, n_boot=100)
+    path = tmp_path / "machine.toml"
+    assert machine.write_machine(table, cases, path, "test", want) == ["literal", "surface"]
+    for r in table.itertuples():
+        m = load_machine(r.variant, path)
+        assert m["tool"]["disk.penetration"] == pytest.approx(r.P, abs=0.05)
+        assert m["tool"]["sleeve.stiffness"] == pytest.approx(r.stiffness, abs=0.005)
+        assert m["tool"]["sleeve.rest_from_tip"] == 22.0 and m["status"] == r.status
+        assert m["source"].startswith("calibrated on clay, seed 001 Table 3")
+    undetermined = machine.fit(synthetic_rows([(80, 0.5), (80, 2.5)]), want)
+    assert machine.write_machine(undetermined, cases, tmp_path / "none.toml", "test", want) == []
+    assert not (tmp_path / "none.toml").exists()
+
+
+def test_a_calibrated_preset_runs_the_calibrated_machine_and_the_others_keep_their_ids():
+    import json
+    from analysis.config import load_machine
+    from analysis.run_spec import plan
+    for preset in ("validation_surface", "validation_literal"):
+        p = plan("clay", preset)
+        tool = load_machine(p["preset"]["machine"])["tool"]
+        assert p["disk"]["penetration"] == tool["disk.penetration"]
+        assert p["sleeve"]["stiffness"] == tool["sleeve.stiffness"]
+        assert p["awake_mm"] == [60.0, 120.0] and p["preset"]["holes"] == 8
+    # a preset without `machine` or `awake` plans the run it planned before they existed (a kept run's id)
+    kept = ROOT / "results/comparison/runs/clay-quick-prescribed-b933b74f/config.json"
+    assert plan("clay", "quick")["id"] == json.loads(kept.read_text())["id"]
