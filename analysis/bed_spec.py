@@ -1,5 +1,5 @@
 """A soil bed's specification, without YADE: its cache key and folder, the checks of its size, tiling and
-graded zones. scripts/bed.py (the scene that settles it) and the analysis side both use these."""
+graded zones. scripts/beds.py (the part that settles it) and the analysis side both use these."""
 from __future__ import annotations
 
 import hashlib

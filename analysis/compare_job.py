@@ -22,10 +22,11 @@ import pandas as pd
 from analysis import compare, measure
 from analysis.batch import finished, plan_case, run_all, say, scene_args
 from analysis.config import ROOT, load_criteria, load_preset
-from analysis.machine import TARGET_METRICS
+from analysis.machine import TARGET_METRICS, load_of
 from analysis.io import atomic_csv, atomic_write, read_table, stamp
 
 KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # a run's files kept beside the table
+KEPT_IF_THERE = ("load.json",)      # the calibrated machine's load W (analysis/machine.py load_of)
 
 
 def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, parallel: int = 1,
@@ -40,6 +41,7 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
     fields = [{"soil": soil, "preset": preset, "seed": seed} for soil in soils for seed in seeds]
     cases = [plan_case(f) for f in fields]              # every input checked before any scene, no YADE
     criteria = load_criteria()
+    machine = load_preset(preset).machine          # a calibrated machine: its targets on clay are not predictions
     kept = out / "comparison" / "runs"
     elsewhere = {c["id"] for c in cases if kept_runs and not finished(runs_dir, c["id"])
                  and (kept / c["id"] / "holes.csv").exists()}
@@ -57,6 +59,9 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
     for c, f in zip(cases, fields):
         if finished(runs_dir, c["id"]):
             tables.append(measure.run(runs_dir / c["id"]))
+            if machine:                         # the load the calibrated machine must carry, kept with the run
+                summary = json.loads((runs_dir / c["id"] / "summary.json").read_text())
+                load_of(runs_dir / c["id"], summary, len(tables[-1]))
             keep(runs_dir / c["id"], kept / c["id"])
             local.append(c)
         elif c["id"] in elsewhere and (kept / c["id"] / "state.npz").exists():
@@ -75,7 +80,6 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
         return 1
     holes = pd.concat(tables, ignore_index=True)
     field = compare.field_table()
-    machine = load_preset(preset).machine          # a calibrated machine: its targets on clay are not predictions
     targets = {("clay", m) for m in TARGET_METRICS[machine]} if machine else set()
     table = compare.compare(holes, field, compare.theory_values(), criteria, compare.residual_pct(summaries), targets)
     table.insert(0, "preset", preset)
@@ -93,6 +97,9 @@ def keep(folder: Path, to: Path):
     final grains (state.npz: 0.7 MB for a quick run, about 3 for a paper one; not the checkpoint or the time series)."""
     for name in KEPT:
         atomic_write(to / name, (folder / name).read_bytes())
+    for name in KEPT_IF_THERE:
+        if (folder / name).exists():
+            atomic_write(to / name, (folder / name).read_bytes())
 
 
 def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, local, seeds, command: str,
@@ -135,6 +142,15 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
         per_soil.append(f"{soil} field {fld.min():.1f}–{fld.max():.1f}, simulated {sim.iloc[0]:.1f}")
     md += (f"\nL2 + h1, the √2·a2 level below the undisturbed surface, against the rigid punch's deepest "
            f"{bound:.1f} mm: {'; '.join(per_soil)} mm (`comparison/{preset}-depth_reach.csv`).\n")
+    loads = {}
+    for run_id, soil in holes[["run", "soil"]].drop_duplicates().itertuples(index=False):
+        f = folder / "runs" / run_id / "load.json"
+        if f.exists():
+            loads.setdefault(soil, []).append(json.loads(f.read_text())["W_n"])
+    if loads:
+        md += ("\nThe load the machine must carry, W (the mean vertical soil force on the disk's punches and plates "
+               "over the measured holes' punch periods, `analysis/machine.py`): "
+               + ", ".join(f"{soil} {sum(w) / len(w):.0f} N" for soil, w in loads.items()) + ".\n")
     trend = compare.position_trend(holes)
     if not trend.empty:
         atomic_csv(trend.round(3), folder / f"{preset}-position_trend.csv", "per run and metric, the slope against "

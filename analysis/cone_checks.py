@@ -4,7 +4,7 @@ replicate beds (other packing seeds), on a bed 1.5 × as wide, and against the c
 Also the dry density of a 100 cm³ cutting-ring core in each bed (calibration_report.core_density), a density
 check independent of the interior porosity the grain density is set from.
 
-A case may tile its bed (`tiles` = n, periodic beds: scripts/bed.py's `tile`): the bed of `size` repeated n × n
+A case may tile its bed (`tiles` = n, periodic beds: scripts/beds.py's `tile`): the bed of `size` repeated n × n
 times, so beds of one seed and different n hold one packing in cells of different widths. The "tiled" check
 compares them seed by seed: the width check with the packing's scatter taken out.
 

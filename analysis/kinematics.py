@@ -16,7 +16,7 @@ import numpy as np
 from analysis.config import ConfigError, Disk
 from analysis.theory import punch_section
 
-TIP_SPHERE_RATIO = 0.2      # blunt tip: inscribed sphere radius / punch radius (scripts/disk.py builds it)
+TIP_SPHERE_RATIO = 0.2      # blunt tip: inscribed sphere radius / punch radius (scripts/disk_parts.py builds it)
 START_MARGIN_DEG = 3.0      # punch 0 starts this far before it first touches the surface
 STOP_MARGIN_DEG = 2.0       # the run stops this far after the last punch has left the soil
 

@@ -82,6 +82,18 @@ def vertical_load(folder: Path, lead_in: int, holes: int) -> float:
     return float(fz.sum() * dt / (holes * period))
 
 
+def load_of(folder: Path, summary: dict, holes: int) -> float:
+    """A finished run's W (vertical_load), from its load.json, or computed from its time series and kept there
+    (a kept run has no time series: its load.json is kept beside its grains). nan when neither is there."""
+    if (folder / "load.json").exists():
+        return json.loads((folder / "load.json").read_text())["W_n"]
+    if not (folder / "timeseries.csv").exists():
+        return math.nan
+    w = vertical_load(folder, summary.get("lead_in", 0), holes)
+    atomic_write(folder / "load.json", json.dumps({"W_n": w}))
+    return w
+
+
 def run_rows(case, folder: Path) -> pd.DataFrame:
     """One row per measured hole of a finished case: its fields, W, and the hole's measures."""
     from analysis import measure
@@ -89,11 +101,7 @@ def run_rows(case, folder: Path) -> pd.DataFrame:
     summary = json.loads((folder / "summary.json").read_text())
     holes = measure.run(folder, pictures=False) if (folder / "state.npz").exists() else read_table(folder / "holes.csv")
     holes = with_l2_surface(holes)
-    if (folder / "load.json").exists():
-        w = json.loads((folder / "load.json").read_text())["W_n"]
-    else:
-        w = vertical_load(folder, summary.get("lead_in", 0), len(holes))
-        atomic_write(folder / "load.json", json.dumps({"W_n": w}))
+    w = load_of(folder, summary, len(holes))
     return pd.DataFrame({"run": summary["id"], "seed": case.params["seed"], "P": case.fields[P_KEY],
                          "stiffness": case.fields[K_KEY], "W_n": w, "hole": holes.hole, "found": holes.found,
                          "L0": holes.L0, "L1": holes.L1, "L2": holes.L2, "L2_surface": holes.L2_surface,
@@ -173,8 +181,7 @@ def run(design=DESIGN, workers: int = 1, threads: int = 2, runs_dir=None, bed_di
     for c in cases:
         if finished(runs_dir, c.id):
             tables.append(run_rows(c, runs_dir / c.id))          # measured and W computed in the run's folder
-            keep(runs_dir / c.id, kept / c.id)                    # compare_job's kept files, and W
-            atomic_write(kept / c.id / "load.json", (runs_dir / c.id / "load.json").read_bytes())
+            keep(runs_dir / c.id, kept / c.id)                    # compare_job's kept files, W with them
         elif (kept / c.id / "summary.json").exists():
             say(f"calibrate-machine: {c.id} not on this machine; measured again from its kept grains")
             tables.append(run_rows(c, kept / c.id))

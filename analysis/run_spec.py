@@ -30,27 +30,51 @@ def run_id(params: dict) -> str:
     return f"{params['soil']['name']}-{params['preset']['name']}-{params['mode']}-{digest}"
 
 
-def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml", slip: float | None = None,
-         speed_kmh: float | None = None, holes: int | None = None, seed: int = 1, mode: str = "prescribed",
-         width: float | None = None, depth: float | None = None, overrides: dict | None = None,
-         disk_inertia: float = 0.05, lead_in: int | None = None, tool: dict | None = None,
-         resolution: str | None = None, dt_safety: float | None = None, weight: float | None = None,
-         lateral: str | None = None, awake: tuple | list | None = None, depth_stop: float | None = None) -> dict:
-    """Every parameter of the run, checked, before YADE starts."""
+@dataclasses.dataclass(frozen=True)
+class RunSpec:
+    """What a run is asked for (`./holes run`'s options): the soil and preset by name, and what changes them
+    (None: the preset's or the disk config's). `plan` checks it and makes the run's parameters."""
+    soil: str
+    preset: str
+    disk_path: str = "configs/disk.toml"
+    seed: int = 1
+    mode: str = "prescribed"
+    slip: float | None = None
+    speed_kmh: float | None = None
+    holes: int | None = None
+    lead_in: int | None = None
+    width: float | None = None
+    depth: float | None = None
+    resolution: str | None = None
+    dt_safety: float | None = None
+    lateral: str | None = None
+    overrides: dict = dataclasses.field(default_factory=dict)   # soil contact parameters (`--set`)
+    tool: dict = dataclasses.field(default_factory=dict)        # disk.<field> / sleeve.<field> (`--tool`)
+    disk_inertia: float = 0.05
+    weight: float | None = None
+    depth_stop: float | None = None
+    awake: tuple | list | None = None
+
+
+def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
+    """Every parameter of the run, checked, before YADE starts: `plan(RunSpec(...))`, or `plan("clay", "quick",
+    holes=4)` for the same spec written out."""
+    spec = spec if isinstance(spec, RunSpec) else RunSpec(spec, preset, **changes)
+    mode, seed, slip, speed_kmh, weight, awake, depth_stop = (spec.mode, spec.seed, spec.slip, spec.speed_kmh,
+                                                              spec.weight, spec.awake, spec.depth_stop)
     if mode not in MODES:
         raise ConfigError(f"mode = {mode!r}: allowed {', '.join(MODES)}")
     seed = SEED.check("run.seed", seed)
-    preset = load_preset(preset_name)
+    preset = load_preset(spec.preset)
     machine = load_machine(preset.machine)["tool"] if preset.machine else {}
-    disk = load_disk(disk_path)
-    disk, sleeve = tool_with(disk, load_sleeve(disk_path, disk), {**machine, **(tool or {})})
-    preset = preset_with(preset, {k: v for k, v in (("width", width), ("depth", depth), ("holes", holes),
-                                                     ("lead_in", lead_in), ("resolution", resolution),
-                                                     ("dt_safety", dt_safety), ("lateral", lateral)) if v is not None})
-    soil = soil_with(load_soil(soil_name), overrides or {})
+    disk = load_disk(spec.disk_path)
+    disk, sleeve = tool_with(disk, load_sleeve(spec.disk_path, disk), {**machine, **spec.tool})
+    preset = preset_with(preset, {k: v for k, v in ((k, getattr(spec, k)) for k in ("width", "depth", "holes", "lead_in",
+                                                                     "resolution", "dt_safety", "lateral")) if v is not None})
+    soil = soil_with(load_soil(spec.soil), spec.overrides)
     slip = RUN_FIELDS["slip"].check("run.slip", disk.slip if slip is None else slip)
     speed_kmh = RUN_FIELDS["speed_kmh"].check("run.speed_kmh", disk.speed_kmh if speed_kmh is None else speed_kmh)
-    RUN_FIELDS["disk_inertia"].check("run.disk_inertia", disk_inertia)
+    RUN_FIELDS["disk_inertia"].check("run.disk_inertia", spec.disk_inertia)
     if weight is not None:
         if mode != "free":
             raise ConfigError(f"run.weight = {weight:g} N needs mode = 'free': allowed only where the soil drives "
@@ -75,7 +99,7 @@ def plan(soil_name: str, preset_name: str, disk_path: str = "configs/disk.toml",
     lay = layout(disk, speed_kmh, slip, preset.holes, preset.lead_in, preset.run_out,
                  tip_sphere=TIP_SPHERE_RATIO * disk.d)
     params = {"soil": as_dict(soil), "disk": as_dict(disk), "sleeve": as_dict(sleeve), "preset": preset.in_run(),
-              "slip": slip, "speed_kmh": speed_kmh, "seed": seed, "mode": mode, "disk_inertia": disk_inertia,
+              "slip": slip, "speed_kmh": speed_kmh, "seed": seed, "mode": mode, "disk_inertia": spec.disk_inertia,
               "layout": {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(lay).items()},
               "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}
     if weight is not None:                  # only then: the ids of runs without a weight stay as they were
@@ -154,9 +178,9 @@ def awake_arg(text: str) -> list:
 
 
 def plan_args(a: argparse.Namespace) -> dict:
-    return plan(a.soil, a.preset, a.disk, a.slip, a.speed_kmh, a.holes, a.seed, a.mode, a.width, a.depth,
-                parse_overrides(a.set), a.disk_inertia, a.lead_in, parse_overrides(a.tool), a.resolution, a.dt_safety,
-                a.weight, a.lateral, a.awake, a.depth_stop)
+    return plan(RunSpec(a.soil, a.preset, a.disk, a.seed, a.mode, a.slip, a.speed_kmh, a.holes, a.lead_in, a.width,
+                        a.depth, a.resolution, a.dt_safety, a.lateral, parse_overrides(a.set), parse_overrides(a.tool),
+                        a.disk_inertia, a.weight, a.depth_stop, a.awake))
 
 
 def plan_from_argv(argv: list[str]) -> dict:

@@ -43,7 +43,7 @@ PARTS = {"collider": "collider", "InteractionLoop": "contacts", "newton": "integ
 def main(argv=None) -> int:
     import numpy as np
     import pandas as pd
-    from scripts import disk
+    from scripts import disk_parts as disk
     p = CommandLine(prog="holes bench collider", description=__doc__.splitlines()[0])
     p.add_argument("run", help="a run folder with a checkpoint (results/runs/<id>)")
     p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000,
@@ -66,7 +66,7 @@ def main(argv=None) -> int:
             for f in (disk.CHECKPOINT, ck["scene"]):
                 shutil.copy(run / f, folder / f)
             print(f"bench collider: {name}, {a.steps} steps from step {ck['iter']}", file=sys.stderr, flush=True)
-            seg = disk.main_run(params, a.threads, folder.parent, checkpoint_every=0, quiet=True,
+            seg = disk.run(params, a.threads, folder.parent, checkpoint_every=0, quiet=True,
                                 stop_at=ck["iter"] + a.steps, collider=attrs)
             pos, engine_s = seg.pop("pos"), seg.pop("engine_s")
             share = {part: sum(t for name, t in engine_s.items() if PARTS.get(name, "kinematics") == part) / seg["wall_s"]

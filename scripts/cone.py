@@ -2,7 +2,7 @@
 
     .venv/bin/python scripts/cone.py --soil clay --resolution default --size 200,200,260 --cone-scale 3
 
-Parts: bed (loaded from scripts/bed.py, cohesion switched on for existing and new contacts), tool (a facet
+Parts: bed (loaded by the bed part, scripts/beds.py, cohesion switched on for existing and new contacts), tool (a facet
 cone with a shaft of 0.74 × the base diameter, as S313's 9.53 mm shaft on the 12.83 mm cone), kinematics
 (constant downward speed), recorder (force on the cone facets against the base depth).
 
@@ -45,7 +45,7 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     soil = soil_with(load_soil(soil_name), overrides or {})
     if cohesion is not None:
         soil = dataclasses.replace(soil, normal_cohesion=cohesion, shear_cohesion=cohesion)
-    from scripts.bed import load_meta
+    from scripts.beds import load_meta
     meta = load_meta(bed_path)
     L, W, D = meta["size_m"]
     Rc = cone_scale * S313_BASE_DIAMETER / 2
@@ -170,7 +170,7 @@ def damage_map(first: set, now: set, pos, axis: tuple, surface: float, period: t
 
 
 def main(argv=None) -> int:
-    from scripts import bed
+    from scripts import beds as bed
     p = bed.bed_arguments(__doc__.splitlines()[0], "200,200,260", "holes cone")
     p.add_argument("--cone-scale", type=float, default=3.0, help="cone size / ASABE S313 size, [0.5, 20] (default 3)")
     p.add_argument("--cone-speed", type=float, default=0.3, help="the cone's penetration speed, m/s (default 0.3)")

@@ -3,11 +3,11 @@
     .venv/bin/python scripts/duckbeak.py            # or: ./holes duckbeak [--soil loam] [--set D=50 ...]
 
 Parts:
-- bed: a settled bed from scripts/bed.py (loam by default), its top standing for the ridge's flat crown,
+- bed: a settled bed from the bed part (scripts/beds.py) (loam by default), its top standing for the ridge's flat crown,
   long enough for the planter's reach along the travel and `below` mm deeper than the tip goes;
 - tool: the closed beak, a facet cone (base diameter D, length beak_length) closed by an inscribed steel
   sphere whose lowest point is the tip P, on a facet cylinder (the planter body, body_length), as
-  scripts/disk.py builds a punch;
+  the disk scene (scripts/disk_parts.py) builds a punch;
 - kinematics: the planter rides on the body DM of the designed linkage (analysis/pepper.py: eqs 1-16 with
   the machine moving at v), so its tip follows P's moving trajectory and it turns with θ4; the text gives no
   angle between DM and the beak, so the beak points straight down at the lowest point (configs/pepper.toml
@@ -16,7 +16,7 @@ Parts:
 
 The pass runs from the tip `clearance` above the surface going down to as high again going up; the planter
 is then taken away and the soil settles until its fastest grain is slower than `settled_speed` (what the beak
-flung has landed), for at most `relax` s. The stability guard of scripts/disk.py watches it.
+flung has landed), for at most `relax` s. The stability guard (scripts/parts.py) watches it.
 Writes results/runs/<id>/ (config.json, timeseries.csv, state.npz, summary.json last), measured by
 analysis/measure.py as a disk run is: one hole at the tip's lowest point; analysis/duckbeak_report.py copies
 the hole's table and pictures to results/pepper/duckbeak/.
@@ -102,7 +102,7 @@ def plan(path="configs/pepper.toml", **changes) -> dict:
 
 def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: Path | None = None,
              quiet: bool = False) -> dict:
-    from scripts import bed as bedmod
+    from scripts import beds as bedmod
     from scripts.parts import (GUARD_EVERY, GUARD_SPEED, TOOL_SELF, as_tool, guard, open_run_folder, punch_surface,
                               save_state, start_scene)
     from analysis import pepper

@@ -1,4 +1,4 @@
-"""Scene parts the YADE scenes share (scripts/disk.py, scripts/duckbeak.py, scripts/peer.py): the bed in a
+"""Scene parts the YADE scenes share (scripts/disk_parts.py, scripts/duckbeak.py, scripts/peer.py): the bed in a
 started scene, a faceted punch, tools, the stability guard, the run folder and its final grains. Each scene
 assembles its own from these; no scene imports another scene.
 """
@@ -61,7 +61,7 @@ def open_run_folder(out_root: Path | None, params: dict, threads: int) -> Path:
 
 
 def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: float, tool_box=None):
-    """YADE started on `threads` with the bed part of a scene: the settled grains of bed_path (scripts/bed.py)
+    """YADE started on `threads` with the bed part of a scene: the settled grains of bed_path (scripts/beds.py)
     in the soil's cohesive material (mask GRAIN_MASK), a steel material for tools and walls, and the
     container's walls `wall_above` m over the bed's top. A laterally periodic bed becomes a strip periodic
     across the travel: a YADE cell periodic in y with the bed's width W, and in x longer than everything the
@@ -74,7 +74,7 @@ def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: floa
     from yade import O, utils
     from scripts import soil as part
     from analysis.metrology import surface_level
-    from scripts.bed import bed_resolution
+    from scripts.beds import bed_resolution
     O.reset()
     data = np.load(bed_path)
     L, W, _ = meta["size_m"]

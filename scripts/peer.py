@@ -2,7 +2,7 @@
 
     .venv/bin/python scripts/peer.py          # or: ./holes bench peer
 
-Both codes start from one settled bed (scripts/bed.py, clay, quick grains) with one time step (half YADE's
+Both codes start from one settled bed (scripts/beds.py, clay, quick grains) with one time step (half YADE's
 P-wave critical step), on one thread, and run two phases: the bed at rest under gravity (`REST_STEPS`: the
 settling's contact-rich cost per step) and one punch (seed 001's D = 50 mm cylinder and cone) pushed straight
 down into it at 1 m/s (`PUNCH_STEPS`). Contact laws: the ones each code would use for moist soil. YADE: the
@@ -98,7 +98,7 @@ def write_stl(path: Path, tris):
 
 
 def main() -> int:
-    from scripts import bed as bedmod
+    from scripts import beds as bedmod
     from scripts.parts import punch_surface
     from analysis.metrology import surface_level
     import numpy as np

@@ -185,7 +185,7 @@ def test_tiled_bed_is_its_packing_repeated_round_the_same_centre(periodic_bed, t
 
 
 def test_only_a_periodic_bed_can_be_tiled():
-    from scripts import bed
+    from scripts import beds as bed
     with pytest.raises(ConfigError, match=r"bed.tiles = 2: only a periodic bed"):
         bed.build("clay", "tiny", (100.0, 100.0, 60.0), tiles=2)
     with pytest.raises(ConfigError, match=r"bed.tiles = 9.*allowed"):

@@ -85,7 +85,7 @@ def test_a_negative_packing_seed_is_refused_by_bed_and_run():
     """YADE's makeCloud draws a random packing for a negative seed: the bed would be cached under a name
     that does not make it again, so both entries refuse it before YADE starts."""
     from analysis import run_spec
-    from scripts import bed
+    from scripts import beds as bed
     with pytest.raises(ConfigError, match=r"bed\.seed = -1 is out of range: allowed \[0, 2147483647\]"):
         bed.build("clay", "tiny", (100.0, 100.0, 60.0), seed=-1)
     with pytest.raises(ConfigError, match=r"run\.seed = -1 is out of range"):

@@ -25,6 +25,19 @@ def test_the_targets_are_clays_field_means_only():
     assert want == pytest.approx({"literal": 62.1 + 13.5, "surface": 62.1, "h1": 13.5})
 
 
+def test_the_calibration_never_reads_loams_or_sands_field_numbers():
+    """Loam's and sand's rows scrambled, or gone: the targets, and so the fitted machine, do not move."""
+    field = field_table()
+    numbers = field.select_dtypes("number").columns
+    scrambled = field.copy()
+    other = scrambled.soil != "clay"
+    scrambled.loc[other, numbers] = scrambled.loc[other, numbers] * 7.3 + 11.0
+    rows = synthetic_rows([(80, 0.5), (80, 2.5), (95, 0.5), (95, 2.5)])
+    fits = [machine.fit(rows, machine.targets(f), n_boot=50) for f in (field, scrambled, field[~other])]
+    for f in fits[1:]:
+        pd.testing.assert_frame_equal(f, fits[0])
+
+
 def test_the_fit_recovers_the_penetration_and_spring_of_a_known_model():
     want = {"literal": 75.6, "surface": 62.1, "h1": 13.5}
     table = machine.fit(synthetic_rows([(80, 0.5), (80, 2.5), (95, 0.5), (95, 2.5)]), want, n_boot=300)
@@ -86,3 +99,26 @@ def test_a_calibrated_preset_runs_the_calibrated_machine_and_the_others_keep_the
     # a preset without `machine` or `awake` plans the run it planned before they existed (a kept run's id)
     kept = ROOT / "results/comparison/runs/clay-quick-prescribed-b933b74f/config.json"
     assert plan("clay", "quick")["id"] == json.loads(kept.read_text())["id"]
+
+
+def test_the_load_is_read_from_the_first_measured_hole_on_a_strip_longer_than_the_disk(tmp_path):
+    """W averages the soil's vertical force over the measured holes' punch periods, from the first measured
+    hole's punch at its lowest. On a strip of more holes than punches that punch passes twice: the first
+    pass is the one (a synthetic record: each hole's punch pushes up with 100 N × its hole number)."""
+    import math
+    omega, n, period = 4.0, 6, 2 * math.pi / 4.0 / 6
+    rows = []
+    for hole in range(9):                                   # lead-in + 8 measured, punches 0..5 then 0..2 again
+        for phi in np.linspace(50, -50, 41) + (0.3 if hole == 1 else 0.0):     # hole 7 is nearer 0° than hole 1
+            t = hole * period + math.radians(50 - phi) / omega
+            rows.append({"t_s": t, "punch": hole % n, "phi_deg": phi, "omega_rad_s": omega,
+                         "punch_fz_n": 100.0 * hole, "sleeve_force_n": 0.0})
+    ts = pd.DataFrame(rows).sort_values("t_s")
+    ts.to_csv(tmp_path / "timeseries.csv", index=False)
+    w = machine.vertical_load(tmp_path, lead_in=1, holes=8)
+    # from hole 1's bottom, 8 periods: the second half of hole 1's passage, holes 2-8 whole, the first half of
+    # hole 9's (none: it has no record); each passage lasts 100°/ω of the period's 60°/ω
+    dt = float(np.median(np.diff(np.unique(ts.t_s))))
+    in_soil = 41 * dt
+    expected = (100 * 1 * in_soil / 2 + sum(100 * h * in_soil for h in range(2, 9))) / (8 * period)
+    assert w == pytest.approx(expected, rel=0.05)
