@@ -5,12 +5,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from analysis.config import (COLLIDER_STEPS, CONE_FIELDS, ROOT, SEED, THREADS, WORKERS, CommandLine, ConfigError,
+from analysis.core.config import (COLLIDER_STEPS, CONE_FIELDS, ROOT, SEED, THREADS, WORKERS, CommandLine, ConfigError,
                              Field, load_disk, option)
 
 
 def cmd_theory(args) -> int:
-    from analysis import theory_report
+    from analysis.holes import theory_report
     disk = load_disk(args.disk)
     out = Path(args.out) if args.out else ROOT / "results/theory" / ("" if disk.name == "disk" else disk.name)
     command = "./holes theory" + ("" if args.disk == "configs/disk.toml" else f" --disk {args.disk}")
@@ -40,7 +40,7 @@ def cmd_params(args) -> int:
 
 
 def cmd_calibrate(args) -> int:
-    from analysis import calibrate
+    from analysis.soil import calibrate
     lo, hi = args.cohesion_range
     try:
         calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, args.seeds, args.cone_speed,
@@ -52,7 +52,7 @@ def cmd_calibrate(args) -> int:
 
 
 def cmd_cone_checks(args) -> int:
-    from analysis import cone_checks
+    from analysis.soil import cone_checks
     try:
         cone_checks.run(args.config, args.workers, args.threads, no_run=args.no_run)
     except RuntimeError as e:
@@ -62,14 +62,14 @@ def cmd_cone_checks(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from analysis import run_report
+    from analysis.holes import run_report
     for path in run_report.run(args.folder):
         print(f"wrote {path}")
     return 0
 
 
 def cmd_measure(args) -> int:
-    from analysis import measure
+    from analysis.holes import measure
     for folder in args.folders:
         table = measure.run(folder)
         print(table.drop(columns=["run"]).round(1).to_string(index=False))
@@ -77,7 +77,7 @@ def cmd_measure(args) -> int:
 
 
 def cmd_rings(args) -> int:
-    from analysis import rings
+    from analysis.holes import rings
     table, cuts = rings.run(args.folders, Path(args.out))
     inner = table[(table.r >= table.band_lo) & (table.r <= table.band_hi)]
     print(inner.groupby(["run", "hole"], sort=False)[["h1", "plate_depth", "depth"]]
@@ -89,7 +89,7 @@ def cmd_rings(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from analysis import compare_job
+    from analysis.holes import compare_job
     try:
         return compare_job.run(args.preset, args.soils.split(","), args.seeds,
                                args.threads, args.workers, args.runs_dir, args.bed_dir, args.out, args.no_run, args.kept,
@@ -100,7 +100,7 @@ def cmd_compare(args) -> int:
 
 
 def cmd_calibrate_machine(args) -> int:
-    from analysis import machine
+    from analysis.holes import machine
     try:
         return machine.run(args.design, args.workers, args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run)
     except ConfigError as e:
@@ -109,7 +109,7 @@ def cmd_calibrate_machine(args) -> int:
 
 
 def cmd_study(args) -> int:
-    from analysis import study
+    from analysis.batch import study
     try:
         if args.export_batch:
             if len(args.file) != 1:
@@ -125,7 +125,7 @@ def cmd_study(args) -> int:
 
 
 def cmd_pepper_frame(args) -> int:
-    from analysis import pepper_frame
+    from analysis.pepper import pepper_frame
     out = Path(args.out) if args.out else ROOT / "results/pepper"
     table = pepper_frame.run(out, f"./holes pepper-frame --screen {args.screen}", args.screen, args.workers,
                              lambda m: print(m, file=sys.stderr, flush=True))
@@ -135,7 +135,7 @@ def cmd_pepper_frame(args) -> int:
 
 
 def cmd_pepper(args) -> int:
-    from analysis import pepper_design
+    from analysis.pepper import pepper_design
     out = Path(args.out) if args.out else ROOT / "results/pepper"
     try:
         result, table, written = pepper_design.run(out, "./holes pepper", starts=args.starts)
@@ -152,7 +152,7 @@ def cmd_pepper(args) -> int:
 
 def cmd_cone_damage(args) -> int:
     import pandas as pd
-    from analysis import cone_damage
+    from analysis.soil import cone_damage
     try:
         table = cone_damage.run(Path(args.folder))
     except ConfigError as e:
@@ -164,7 +164,7 @@ def cmd_cone_damage(args) -> int:
 
 
 def cmd_calibration_report(args) -> int:
-    from analysis import calibration_report
+    from analysis.soil import calibration_report
     print(calibration_report.run().to_string(index=False))
     return 0
 
@@ -173,12 +173,12 @@ def cmd_bench(args) -> int:
     """`bench beds`: every bed's own measured settling cost (from its metadata) with the machine;
     `bench runs`: every finished disk run's cost (in --runs-dir), and the wall time per 200 mm of travel (one
     hole), added to the runs already tabulated; duck-beak runs, which have no travel, are left out;
-    `bench speed-vs-error`, `bench economies`: analysis/bench.py; `bench peer`: scripts/peer.py (LIGGGHTS
+    `bench speed-vs-error`, `bench economies`: analysis/batch/bench.py; `bench peer`: scripts/peer.py (LIGGGHTS
     beside YADE); `bench collider`: scripts/collider_bench.py (contact detection settings from a run's
     checkpoint)."""
     import json
     import pandas as pd
-    from analysis.io import atomic_csv, machine, stamp
+    from analysis.core.io import atomic_csv, machine, stamp
     if args.what == "peer":
         return run_scene("peer.py", [])
     if args.what == "collider":
@@ -187,11 +187,11 @@ def cmd_bench(args) -> int:
             return 2
         return run_scene("collider_bench.py", [args.run, "--steps", str(args.steps), "--threads", str(args.threads)])
     if args.what in ("speed-vs-error", "economies"):
-        from analysis import bench
+        from analysis.batch import bench
         go = bench.run if args.what == "speed-vs-error" else bench.run_economies
         return go(workers(args), args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run)
     if args.what == "runs":
-        from analysis.bench import run_cost
+        from analysis.batch.bench import run_cost
         rows = []
         for path in sorted(Path(args.runs_dir or ROOT / "results/runs").glob("*/summary.json")):
             m = json.loads(path.read_text())
@@ -229,7 +229,7 @@ def with_earlier(here, out: Path, key: str):
     """This machine's rows (`here`) with the rows of `out`'s table made elsewhere: a row measured again is
     replaced, rows sorted by `key`."""
     import pandas as pd
-    from analysis.io import read_table
+    from analysis.core.io import read_table
     if not out.exists():
         return here
     earlier = read_table(out)
@@ -365,7 +365,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_study)
     p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs; "
                        "`bench speed-vs-error` runs one clay hole at several resolutions and `bench economies` "
-                       "what each scene economy costs in error (analysis/bench.py); "
+                       "what each scene economy costs in error (analysis/batch/bench.py); "
                        "`bench peer`: one bed and punch in LIGGGHTS and in YADE (scripts/peer.py); "
                        "`bench collider --run R`: contact detection settings on run R's strip from its checkpoint "
                        "(scripts/collider_bench.py)")

@@ -35,11 +35,11 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (LATERAL, SEED, THREADS, CommandLine, Resolution, check_lateral,  # noqa: E402
+from analysis.core.config import (LATERAL, SEED, THREADS, CommandLine, Resolution, check_lateral,  # noqa: E402
                              load_resolution, load_soil, option, parse_overrides, soil_with)
-from analysis.bed_spec import (BED_DIR, bed_key, check_graded, check_size, check_tiles,  # noqa: E402
+from analysis.core.bed_spec import (BED_DIR, bed_key, check_graded, check_size, check_tiles,  # noqa: E402
                                mean_volume, zones)
-from analysis.io import atomic_write  # noqa: E402
+from analysis.core.io import atomic_write  # noqa: E402
 
 SETTLE_UNBALANCED = 0.01     # settled when mean unbalanced force / mean contact force falls below this
 SETTLE_MIN_TIME = 0.05       # s of deposition before the criterion is checked

@@ -25,8 +25,8 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import COLLIDER_STEPS, ROOT, THREADS, CommandLine, option  # noqa: E402
-from analysis.io import atomic_csv, machine, stamp  # noqa: E402
+from analysis.core.config import COLLIDER_STEPS, ROOT, THREADS, CommandLine, option  # noqa: E402
+from analysis.core.io import atomic_csv, machine, stamp  # noqa: E402
 
 SETTINGS = [                # (name, InsertionSortCollider attributes); the first, YADE's default, runs twice
     ("YADE default: verletDist 0.5 r, targetInterv 100", {"verletDist": -0.5, "targetInterv": 100}),

@@ -24,8 +24,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import CONE_DEPTH, CONE_FIELDS, ROOT, ConfigError, load_soil, parse_overrides, soil_with  # noqa: E402
-from analysis.io import atomic_write  # noqa: E402
+from analysis.core.config import CONE_DEPTH, CONE_FIELDS, ROOT, ConfigError, load_soil, parse_overrides, soil_with  # noqa: E402
+from analysis.core.io import atomic_write  # noqa: E402
 
 S313_BASE_DIAMETER = 0.01283     # m
 S313_SHAFT_RATIO = 9.53 / 12.83
@@ -128,7 +128,7 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
                "dt": O.dt, "wall_s": time.time() - wall0, "threads": threads,
                "particle_steps_per_s": n_particles * O.iter / (time.time() - wall0)}
     out_dir = out_dir or ROOT / "results/cone"
-    from analysis.calibrate import cone_result_name
+    from analysis.soil.calibrate import cone_result_name
     name = cone_result_name(meta["key"], cone_scale, speed, soil.normal_cohesion)
     atomic_write(out_dir / f"{name}.csv", "base_depth_m,resistance_pa\n" + "".join(f"{a:.5f},{b:.1f}\n" for a, b in rows))
     atomic_write(out_dir / f"{name}.json", json.dumps(summary, indent=1))

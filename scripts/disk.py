@@ -2,9 +2,9 @@
 
     ./holes run --soil clay --preset quick          # ./holes run --help: every option
 
-The run is planned without YADE (analysis/run_spec.py: the checked parameters and the run id), then assembled
+The run is planned without YADE (analysis/core/run_spec.py: the checked parameters and the run id), then assembled
 from the parts in scripts/disk_parts.py (the bed, the tool, the disk's motion and the sleeves, the recorder, the
-awake window, the guard, the checkpoint) and run there; its pictures and report come from analysis/run_report.py.
+awake window, the guard, the checkpoint) and run there; its pictures and report come from analysis/holes/run_report.py.
 Exit codes: 0 done (or reused), 2 bad input (before any scene starts), 3 stopped by the stability guard or a
 bottomed-out disk, with the reason.
 """
@@ -15,8 +15,8 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import ROOT, ConfigError  # noqa: E402
-from analysis.run_spec import arguments, plan_args  # noqa: E402
+from analysis.core.config import ROOT, ConfigError  # noqa: E402
+from analysis.core.run_spec import arguments, plan_args  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -38,7 +38,7 @@ def main(argv=None) -> int:
     except RuntimeError as e:
         print(f"run stopped: {e}", file=sys.stderr)
         return 3
-    from analysis import run_report
+    from analysis.holes import run_report
     run_report.run(runs / summary["id"])
     print(json.dumps(summary))
     return 0

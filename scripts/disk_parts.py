@@ -3,7 +3,7 @@ spring-loaded press sleeves in a soil strip (seed 001 §1.2, §2, Fig. 2). scrip
 the collider benchmark (scripts/collider_bench.py) runs segments of the same assembly.
 
 - bed: a settled strip from the bed part (scripts/beds.py), long enough for `holes` consecutive holes
-  (analysis/kinematics.py), cohesion on for existing and new contacts; walled, or (preset `lateral =
+  (analysis/core/kinematics.py), cohesion on for existing and new contacts; walled, or (preset `lateral =
   "periodic"`) periodic across the travel, so its width is the spacing of a row of identical disks (the
   roller's, seed 001 §2.2) and no side wall stiffens the soil (the walls made the cone read 35 % high);
 - `Tool`: N punches, each a facet cylinder (diameter D, from the mounting plate R0 to R - h) and a facet cone
@@ -39,10 +39,10 @@ import sys
 import time
 from pathlib import Path
 
-from analysis.config import load_soil
-from analysis.io import atomic_write, provenance
-from analysis.kinematics import TIP_SPHERE_RATIO, slip_between_holes
-from analysis.run_spec import CHECKPOINT_EVERY
+from analysis.core.config import load_soil
+from analysis.core.io import atomic_write, provenance
+from analysis.core.kinematics import TIP_SPHERE_RATIO, slip_between_holes
+from analysis.core.run_spec import CHECKPOINT_EVERY
 from scripts.parts import (GRAIN_MASK, GUARD_EVERY, GUARD_SPEED, TOOL_SELF, as_tool, band, circle, guard,
                            open_run_folder, punch_surface, save_state, start_scene)
 
@@ -423,8 +423,8 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
     (scripts/collider_bench.py): a run stopped at `stop_at` before its end writes nothing more and returns that
     segment's cost and grains."""
     from scripts import beds
-    from analysis.config import disk_from_dict, Sleeve
-    from analysis.kinematics import Layout
+    from analysis.core.config import disk_from_dict, Sleeve
+    from analysis.core.kinematics import Layout
     soil = load_soil(params["soil"]["name"])
     soil = dataclasses.replace(soil, **{k: params["soil"][k] for k in params["soil"] if k != "name"})
     disk = disk_from_dict({k: v for k, v in params["disk"].items() if k != "name"})

@@ -8,7 +8,7 @@ Parts:
 - tool: the closed beak, a facet cone (base diameter D, length beak_length) closed by an inscribed steel
   sphere whose lowest point is the tip P, on a facet cylinder (the planter body, body_length), as
   the disk scene (scripts/disk_parts.py) builds a punch;
-- kinematics: the planter rides on the body DM of the designed linkage (analysis/pepper.py: eqs 1-16 with
+- kinematics: the planter rides on the body DM of the designed linkage (analysis/pepper/pepper.py: eqs 1-16 with
   the machine moving at v), so its tip follows P's moving trajectory and it turns with θ4; the text gives no
   angle between DM and the beak, so the beak points straight down at the lowest point (configs/pepper.toml
   [planter].attachment). Each step sets the planter's velocity and spin to reach the next exact pose;
@@ -18,7 +18,7 @@ The pass runs from the tip `clearance` above the surface going down to as high a
 is then taken away and the soil settles until its fastest grain is slower than `settled_speed` (what the beak
 flung has landed), for at most `relax` s. The stability guard (scripts/parts.py) watches it.
 Writes results/runs/<id>/ (config.json, timeseries.csv, state.npz, summary.json last), measured by
-analysis/measure.py as a disk run is: one hole at the tip's lowest point; analysis/duckbeak_report.py copies
+analysis/holes/measure.py as a disk run is: one hole at the tip's lowest point; analysis/pepper/duckbeak_report.py copies
 the hole's table and pictures to results/pepper/duckbeak/.
 """
 from __future__ import annotations
@@ -32,11 +32,11 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import (ROOT, SEED, THREADS, CommandLine, ConfigError, Field, as_dict, check_table, load_resolution, load_soil,  # noqa: E402
+from analysis.core.config import (ROOT, SEED, THREADS, CommandLine, ConfigError, Field, as_dict, check_table, load_resolution, load_soil,  # noqa: E402
                              option, parse_overrides, read_toml)
-from analysis.bed_spec import BED_DIR  # noqa: E402
-from analysis.io import atomic_write, provenance  # noqa: E402
-from analysis.kinematics import TIP_SPHERE_RATIO  # noqa: E402
+from analysis.core.bed_spec import BED_DIR  # noqa: E402
+from analysis.core.io import atomic_write, provenance  # noqa: E402
+from analysis.core.kinematics import TIP_SPHERE_RATIO  # noqa: E402
 
 PLANTER_FIELDS = {"D": Field(20.0, 150.0, unit="mm", meaning="closed beak's base diameter"),
                   "beak_length": Field(20.0, 300.0, unit="mm", meaning="beak cone length"),
@@ -56,8 +56,8 @@ def plan(path="configs/pepper.toml", **changes) -> dict:
     """Every parameter of the scene, checked, before YADE starts: the linkage's pass through the soil and the
     bed it needs (mm, s). `changes` override [planter] and [soil_scene] keys."""
     import numpy as np
-    from analysis import pepper
-    from analysis.pepper_design import load_goals
+    from analysis.pepper import pepper
+    from analysis.pepper.pepper_design import load_goals
     data = read_toml(path)
     planter = check_table(f"{path} [planter]", {**data["planter"], **{k: v for k, v in changes.items()
                                                                        if k in PLANTER_FIELDS}}, PLANTER_FIELDS)
@@ -105,7 +105,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     from scripts import beds as bedmod
     from scripts.parts import (GUARD_EVERY, GUARD_SPEED, TOOL_SELF, as_tool, guard, open_run_folder, punch_surface,
                               save_state, start_scene)
-    from analysis import pepper
+    from analysis.pepper import pepper
     planter, scene, ps = params["planter"], params["soil_scene"], params["pass"]
     soil = load_soil(params["soil"]["name"])
     log = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
@@ -242,7 +242,7 @@ def main(argv=None) -> int:
     except RuntimeError as e:
         print(f"duckbeak stopped: {e}", file=sys.stderr)
         return 3
-    from analysis import duckbeak_report
+    from analysis.pepper import duckbeak_report
     table = duckbeak_report.run(runs / summary["id"], Path(a.report))
     print(table.drop(columns=["run"]).round(1).to_string(index=False), file=sys.stderr)
     print(json.dumps(summary))

@@ -9,8 +9,8 @@ import math
 import os
 from pathlib import Path
 
-from analysis.config import ROOT
-from analysis.io import atomic_write, provenance
+from analysis.core.config import ROOT
+from analysis.core.io import atomic_write, provenance
 
 SEGMENTS = 16               # facets round a punch or a sleeve
 GUARD_EVERY = 200           # steps between stability checks
@@ -51,7 +51,7 @@ def band(lo: list, hi: list) -> list:
 
 def open_run_folder(out_root: Path | None, params: dict, threads: int) -> Path:
     """results/runs/<id>/ with the run's config.json (its parameters and, under "provenance", where it was made:
-    analysis/io.py provenance), and no summary.json until the run has finished."""
+    analysis/core/io.py provenance), and no summary.json until the run has finished."""
     out = (out_root or ROOT / "results/runs") / params["id"]
     out.mkdir(parents=True, exist_ok=True)
     (out / "summary.json").unlink(missing_ok=True)
@@ -73,7 +73,7 @@ def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: floa
     boot(threads)
     from yade import O, utils
     from scripts import soil as part
-    from analysis.metrology import surface_level
+    from analysis.holes.metrology import surface_level
     from scripts.beds import bed_resolution
     O.reset()
     data = np.load(bed_path)

@@ -25,9 +25,9 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.config import ROOT, load_disk, load_soil  # noqa: E402
-from analysis.io import atomic_csv, machine  # noqa: E402
-from analysis.kinematics import TIP_SPHERE_RATIO  # noqa: E402
+from analysis.core.config import ROOT, load_disk, load_soil  # noqa: E402
+from analysis.core.io import atomic_csv, machine  # noqa: E402
+from analysis.core.kinematics import TIP_SPHERE_RATIO  # noqa: E402
 
 BED = ("clay", "quick", (200, 200, 280), 1)      # soil, resolution, size (mm), seed: the calibration bed
 REST_STEPS, PUNCH_STEPS = 2000, 3000
@@ -100,7 +100,7 @@ def write_stl(path: Path, tris):
 def main() -> int:
     from scripts import beds as bedmod
     from scripts.parts import punch_surface
-    from analysis.metrology import surface_level
+    from analysis.holes.metrology import surface_level
     import numpy as np
     exe = shutil.which("liggghts")
     if exe is None:

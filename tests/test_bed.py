@@ -8,9 +8,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from analysis.config import ROOT, ConfigError, load_soil
-from analysis.calibrate import cone_result_name
-from analysis.io import read_table
+from analysis.core.config import ROOT, ConfigError, load_soil
+from analysis.soil.calibrate import cone_result_name
+from analysis.core.io import read_table
 
 TINY = ["--resolution", "tiny", "--threads", "2"]
 

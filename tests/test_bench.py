@@ -1,9 +1,9 @@
-"""Speed against error (analysis/bench.py) on a made-up study table: the reference, the errors, the front."""
+"""Speed against error (analysis/batch/bench.py) on a made-up study table: the reference, the errors, the front."""
 import pandas as pd
 import pytest
 
-from analysis.bench import economies, errors, pareto, settings
-from analysis.compare import field_table
+from analysis.batch.bench import economies, errors, pareto, settings
+from analysis.holes.compare import field_table
 
 
 def table():

@@ -3,8 +3,8 @@ import shutil
 
 import pytest
 
-from analysis import calibrate
-from analysis.config import ROOT, load_soil
+from analysis.soil import calibrate
+from analysis.core.config import ROOT, load_soil
 
 quiet = dict(log=lambda *a: None)
 
@@ -31,7 +31,7 @@ def test_write_back_keeps_comments_and_validates(tmp_path, monkeypatch):
     shutil.copy(ROOT / "configs/soils/sand.toml", soils / "sand.toml")
     shutil.copy(ROOT / "configs/field/table2_soils.csv", tmp_path / "configs/field/table2_soils.csv")
     monkeypatch.setattr(calibrate, "ROOT", tmp_path)
-    import analysis.config as config
+    import analysis.core.config as config
     monkeypatch.setattr(config, "ROOT", tmp_path)
     calibrate.write_back("sand", ("normal_cohesion", "shear_cohesion"), 12345.0)
     text = (soils / "sand.toml").read_text()
@@ -41,8 +41,8 @@ def test_write_back_keeps_comments_and_validates(tmp_path, monkeypatch):
 
 
 def test_cone_checks_config_is_checked_before_anything_runs(tmp_path):
-    from analysis import cone_checks
-    from analysis.config import ConfigError
+    from analysis.soil import cone_checks
+    from analysis.core.config import ConfigError
     cases = cone_checks.load_cases(ROOT / "configs/cone_checks.toml")
     assert {c["check"] for c in cases} == set(cone_checks.CHECKS)
     assert len({(c["bed"], c["cone_scale"]) for c in cases}) == len(cases)          # no case twice
@@ -65,7 +65,7 @@ def test_cone_checks_config_is_checked_before_anything_runs(tmp_path):
 
 def test_cone_checks_summary_states_the_width_change_and_the_scatter():
     import pandas as pd
-    from analysis import cone_checks
+    from analysis.soil import cone_checks
     common = dict(soil="clay", resolution="quick", lateral="periodic", target_kpa=450.0, dry_density_core=1270, core_error_percent=3.2,
                   cone_diameter_mm=38.49)
     table = pd.DataFrame([dict(check="replicate", seed=1, size_mm="200x200x280", cone_index_kpa=440.0, **common),
@@ -82,7 +82,7 @@ def test_tiled_width_check_is_judged_on_the_seeds_paired_changes():
     """Each seed's wider cell against its narrower one (the same packing); the criterion is met only when the
     95 % interval of the mean change lies within ± 5 %, fails when it lies beyond, and is otherwise unresolved."""
     import pandas as pd
-    from analysis import cone_checks
+    from analysis.soil import cone_checks
 
     def table(changes):
         rows = []
@@ -104,7 +104,7 @@ def test_tiled_width_check_is_judged_on_the_seeds_paired_changes():
 def test_cone_checks_no_run_tables_stored_cases_only(tmp_path, monkeypatch):
     """--no-run runs no scene: with nothing stored it says so; a stored cone run whose bed was settled on
     another machine (beds are not committed) is tabled with its densities left out, not a crash."""
-    from analysis import cone_checks
+    from analysis.soil import cone_checks
     base = '[base]\nsoil = "clay"\nresolution = "quick"\nsize = [200, 200, 280]\ncone_scale = 3.0\nspeed = 0.5\n'
     path = tmp_path / "checks.toml"
     path.write_text(base + '[[case]]\ncheck = "replicate"\nseed = 999999\n')
@@ -124,7 +124,7 @@ def test_a_stored_cone_run_is_reused_within_the_bond_tolerance_only():
     """The calibration and the cone checks find stored runs by one lookup: the same bed, cone and speed and a
     bond strength within 0.1 % (the sand calibration's last step, 53,673.5 Pa, is what its config keeps as
     5.367e4), and nothing 1 % off or at another cone."""
-    from analysis.calibrate import stored_cone
+    from analysis.soil.calibrate import stored_cone
     bed = "sand-quick-200x200x280-per-s1-adbe045a"
     path, s = stored_cone(bed, 3.0, 0.5, 53670.0)
     assert path.name.endswith("coh53673.5.json") and s["cohesion_pa"] == pytest.approx(53673.5)
@@ -150,8 +150,8 @@ def test_damage_map_bins_bonds_by_depth_and_ring_with_the_periodic_image():
 def test_cone_damage_summary_reads_the_reach_and_refuses_an_empty_folder(tmp_path):
     import json
     import pandas as pd
-    from analysis import cone_damage
-    from analysis.config import ConfigError
+    from analysis.soil import cone_damage
+    from analysis.core.config import ConfigError
     with pytest.raises(ConfigError, match="no \\*-damage.csv"):
         cone_damage.maps(tmp_path)
     stem = "clay-quick-200x200x280-per-s1-abc-c3-v0.5-coh70000"

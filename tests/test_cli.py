@@ -6,7 +6,7 @@ import sys
 import pytest
 
 from analysis import cli
-from analysis.config import ROOT, ConfigError
+from analysis.core.config import ROOT, ConfigError
 
 
 @pytest.mark.parametrize("argv, field", [
@@ -36,7 +36,7 @@ def test_bad_option_exits_2_naming_it_and_its_range(argv, field, tmp_path, capsy
 
 
 def test_a_scene_refuses_zero_threads_before_it_plans():
-    from analysis.run_spec import plan_from_argv
+    from analysis.core.run_spec import plan_from_argv
     with pytest.raises(ConfigError, match=r"--threads = 0 is out of range: allowed \[1, 64\]"):
         plan_from_argv(["--soil", "clay", "--preset", "test", "--threads", "0"])
 
@@ -50,6 +50,6 @@ def test_the_cone_checks_its_own_numbers_before_settling_a_bed(tmp_path, option,
 
 
 def test_one_slip_range_for_the_disk_config_and_a_run():
-    from analysis.config import DISK_FIELDS
-    from analysis.run_spec import RUN_FIELDS
+    from analysis.core.config import DISK_FIELDS
+    from analysis.core.run_spec import RUN_FIELDS
     assert DISK_FIELDS["slip"] is RUN_FIELDS["slip"]

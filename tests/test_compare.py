@@ -6,8 +6,8 @@ import sys
 import numpy as np
 import pytest
 
-from analysis.config import ROOT
-from analysis.io import read_table
+from analysis.core.config import ROOT
+from analysis.core.io import read_table
 
 COLUMNS = {"preset", "soil", "metric", "field_mean", "field_min", "field_max", "sim_mean", "sim_sd", "ci_lo",
            "ci_hi", "n_holes", "n_runs", "abs_error", "rel_error_pct", "inside_field_range", "theory_table1",
@@ -43,14 +43,14 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     sim = reach[reach.source == "simulated"].iloc[0]
     assert sim.n == 2 and abs(sim.L2_plus_h1 - (holes.L2 + holes.h1).mean()) < 0.01
     # the pressed ring beside each hole (./holes rings): both sides of both holes, the plate's face from the run
-    from analysis import rings
+    from analysis.holes import rings
     run_dir = scene_dirs[0] / holes.run.iloc[0]
     profile, cuts = rings.run([run_dir], tmp_path / "rings")
     assert set(profile.groupby(["hole", "side"]).groups) == {(1, "-y"), (1, "+y"), (2, "-y"), (2, "+y")}
     summary = json.loads((run_dir / "summary.json").read_text())
     # in the metrology's datum: the scene's level (highest grain top per 4-radius cell) stands above the median
     # probed surface the holes are measured from, by a fraction of a grain
-    from analysis.measure import measure_run
+    from analysis.holes.measure import measure_run
     offset = 1000 * summary["z_surface_m"] - measure_run(run_dir)[2]
     assert 0 < offset < 2 * holes.grain_radius.iloc[0]
     assert list(profile.groupby("hole").plate_depth.first()) == pytest.approx(

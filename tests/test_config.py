@@ -2,7 +2,7 @@
 import pytest
 
 from analysis import cli, params_doc
-from analysis.config import (DISK_FIELDS, PRESET_FIELDS, ROOT, SLEEVE_FIELDS, SOIL_FIELDS, ConfigError, load_disk,
+from analysis.core.config import (DISK_FIELDS, PRESET_FIELDS, ROOT, SLEEVE_FIELDS, SOIL_FIELDS, ConfigError, load_disk,
                              load_seedling)
 
 
@@ -58,7 +58,7 @@ def test_cli_reports_bad_config_before_running(tmp_path, capsys):
 
 def test_theory_runs_on_another_disk(tmp_path, other_disk):
     """`theory` on a non-seed disk writes a consistent table: L1 = D, and no paper column to compare."""
-    from analysis import theory_report
+    from analysis.holes import theory_report
     res = theory_report.run(other_disk, tmp_path, "test")
     t = res["table"].set_index(["slip", "quantity"])
     assert t.loc[(0.0, "L1"), "envelope_mm"] == pytest.approx(other_disk.D, abs=1e-3)
@@ -84,7 +84,7 @@ def test_every_help_page_prints(capsys):
 def test_a_negative_packing_seed_is_refused_by_bed_and_run():
     """YADE's makeCloud draws a random packing for a negative seed: the bed would be cached under a name
     that does not make it again, so both entries refuse it before YADE starts."""
-    from analysis import run_spec
+    from analysis.core import run_spec
     from scripts import beds as bed
     with pytest.raises(ConfigError, match=r"bed\.seed = -1 is out of range: allowed \[0, 2147483647\]"):
         bed.build("clay", "tiny", (100.0, 100.0, 60.0), seed=-1)
@@ -106,8 +106,8 @@ def test_the_parameter_page_is_current():
 def test_bad_graded_resolution_is_refused(tmp_path):
     """A graded bed (configs/resolutions.toml) whose coarse grains overlap the fine sizes, whose fine zone does
     not fit the strip or leaves the plate outside it, or whose sides are periodic, is refused before YADE starts."""
-    from analysis.config import load_resolution
-    from analysis.run_spec import plan
+    from analysis.core.config import load_resolution
+    from analysis.core.run_spec import plan
     p = tmp_path / "r.toml"
     p.write_text("[g]\nradius = 0.004\nspread = 0.25\ncoarse_radius = 0.006\nfine_width = 0.1\nfine_depth = 0.09\n")
     with pytest.raises(ConfigError, match=r"g: a graded bed needs coarse_radius \(1 - spread\) > radius \(1 \+ spread\)"):
@@ -129,7 +129,7 @@ def test_bad_graded_resolution_is_refused(tmp_path):
                                            ("awake = [60.0, -5.0]", r"awake.ahead = -5.0 is out of range"),
                                            ("machine = 3", "machine = 3: must be a string")])
 def test_a_presets_machine_and_awake_are_checked(tmp_path, extra, pattern):
-    from analysis.config import load_preset
+    from analysis.core.config import load_preset
     text = (ROOT / "configs/presets.toml").read_text()
     start = text.index("[quick]")
     section = text[start:text.index("\n[", start + 1)]

@@ -9,9 +9,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.config import ROOT, ConfigError, load_disk
-from analysis.metrology import deficit_centres
-from analysis.theory import hole_spacing
+from analysis.core.config import ROOT, ConfigError, load_disk
+from analysis.holes.metrology import deficit_centres
+from analysis.holes.theory import hole_spacing
 
 
 def run_scene(tmp, *args, expect_ok=True, dirs=None):
@@ -119,7 +119,7 @@ def test_weight_sets_the_penetration(side_scenes):
                                          (["--mode", "free", "--weight", "100", "--depth-stop", "65"], "depth_stop"),
                                          (["--mode", "free", "--weight", "100", "--depth-stop", "90"], "depth_stop")])
 def test_bad_run_input_names_the_field(args, field):
-    from analysis.run_spec import plan_from_argv
+    from analysis.core.run_spec import plan_from_argv
     with pytest.raises(ConfigError) as e:
         plan_from_argv(["--soil", "clay", "--preset", "test", *args])
     assert field in str(e.value) and "allowed" in str(e.value), str(e.value)
@@ -147,7 +147,7 @@ def test_periodic_strip_forms_a_measured_hole_without_side_walls(side_scenes, sc
     """The strip periodic across the travel (the paper preset's sides): the punch reaches its
     depth, the sleeve works, no grain is lost, positions come back wrapped into the cell's width, and the hole
     is measured (test_bed checks that a periodic bed has no wall layer at its sides)."""
-    from analysis import measure
+    from analysis.holes import measure
     summary = json.loads(side_scenes["periodic"].result().stdout.strip().splitlines()[-1])
     run = scene_dirs[0] / summary["id"]
     cfg = json.loads((run / "config.json").read_text())
@@ -168,7 +168,7 @@ def test_a_graded_bed_forms_a_hole_measured_at_its_fine_grains(side_scenes, scen
     """A graded strip (configs/resolutions.toml: tiny_graded): the tip reaches the configured depth, no grain is
     lost, the balance closes, and the hole is found and measured with a probe of the fine grains' radius, from
     the fine zone's undisturbed level (the scene's and the metrology's agree within a fine radius)."""
-    from analysis import measure
+    from analysis.holes import measure
     summary = json.loads(side_scenes["graded"].result().stdout.strip().splitlines()[-1])
     run = scene_dirs[0] / summary["id"]
     cfg = json.loads((run / "config.json").read_text())
@@ -194,7 +194,7 @@ def test_a_sleeping_far_field_keeps_the_work_of_forming_the_holes(side_scenes, s
     energy balance still closes with the window's jumps booked, and the tools do the work they do with every
     grain awake, within the scatter of round-off (coarse strip, contact modulus changed in the 8th digit: four
     all-awake runs 241-267 J, four windowed ones 231-284 J)."""
-    from analysis import measure
+    from analysis.holes import measure
     asleep, awake = (json.loads(side_scenes[k].result().stdout.strip().splitlines()[-1]) for k in ("asleep", "awake"))
     assert awake["awake"] is None and 0.3 < asleep["awake"]["awake_fraction"] < 0.8, asleep["awake"]
     assert asleep["awake"]["slept_vmax_m_s"] < 0.05 * asleep["tip_speed_m_s"]     # only still grains sleep

@@ -7,8 +7,8 @@ import sys
 import numpy as np
 import pytest
 
-from analysis import pepper
-from analysis.config import ROOT, ConfigError
+from analysis.pepper import pepper
+from analysis.core.config import ROOT, ConfigError
 from scripts import duckbeak
 
 SPEED, OMEGA = 300.0, 2 * math.pi          # configs/pepper.toml [operation]: 0.3 m/s, 60 plants/min
@@ -47,7 +47,7 @@ def run_duckbeak(dirs):
 @pytest.mark.scene
 def test_the_duckbeak_forms_a_measured_hole(side_scenes, scene_dirs):
     """The closed beak reaches the loop's depth and leaves a hole about as wide as itself."""
-    from analysis.measure import measure_run
+    from analysis.holes.measure import measure_run
     r = side_scenes["duckbeak"].result()
     assert r.returncode == 0, r.stderr[-3000:]
     summary = json.loads(r.stdout.strip().splitlines()[-1])

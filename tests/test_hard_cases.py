@@ -10,9 +10,9 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
-from analysis import measure
-from analysis.compare import RESIDUAL_LIMIT
-from analysis.config import load_soil
+from analysis.holes import measure
+from analysis.holes.compare import RESIDUAL_LIMIT
+from analysis.core.config import load_soil
 from tests.test_disk import run_scene
 
 CLAY = load_soil("clay")

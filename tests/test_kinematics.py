@@ -1,13 +1,13 @@
-"""Layout of the disk run (analysis/kinematics.py) and the sleeve / preset configs; no YADE."""
+"""Layout of the disk run (analysis/core/kinematics.py) and the sleeve / preset configs; no YADE."""
 import dataclasses
 
 import numpy as np
 import pytest
 
-from analysis.config import ConfigError, load_disk, load_preset, load_sleeve, sleeve_from_dict, as_dict
-from analysis.kinematics import TIP_SPHERE_RATIO, layout, punch_outline, slip_between_holes, to_axis_frame
-from analysis.metrology import deficit_centres
-from analysis.theory import hole_spacing, swept_extent
+from analysis.core.config import ConfigError, load_disk, load_preset, load_sleeve, sleeve_from_dict, as_dict
+from analysis.core.kinematics import TIP_SPHERE_RATIO, layout, punch_outline, slip_between_holes, to_axis_frame
+from analysis.holes.metrology import deficit_centres
+from analysis.holes.theory import hole_spacing, swept_extent
 
 DISK = load_disk("configs/disk.toml")
 

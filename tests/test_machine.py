@@ -1,11 +1,12 @@
-"""The machine's calibration on clay (analysis/machine.py): the fit through the design's runs, what it refuses."""
+"""The machine's calibration on clay (analysis/holes/machine.py): the fit through the design's runs, what it refuses."""
 import numpy as np
 import pandas as pd
 import pytest
 
-from analysis import cli, machine
-from analysis.compare import field_table
-from analysis.config import ROOT, ConfigError
+from analysis import cli
+from analysis.holes import machine
+from analysis.holes.compare import field_table
+from analysis.core.config import ROOT, ConfigError
 
 
 def synthetic_rows(points, holes=2, noise=0.3, seed=1):
@@ -68,8 +69,8 @@ def test_a_design_on_another_soil_is_refused(tmp_path, capsys):
 def test_the_fitted_values_are_written_where_a_preset_reads_them(tmp_path):
     """calibrate-machine's values reach the runs through configs/machine.toml: each variant with a fit is a
     section a preset's `machine` key names; one the design cannot determine is not written."""
-    from analysis.config import load_machine
-    from analysis.study import load_study
+    from analysis.core.config import load_machine
+    from analysis.batch.study import load_study
     _, cases = load_study(ROOT / "configs/studies/machine_clay.toml")
     want = {"literal": 75.6, "surface": 62.1, "h1": 13.5}
     table = machine.fit(synthetic_rows([(80, 0.5), (80, 2.5), (95, 0.5), (95, 2.5)]), want, n_boot=100)
@@ -88,8 +89,8 @@ def test_the_fitted_values_are_written_where_a_preset_reads_them(tmp_path):
 
 def test_a_calibrated_preset_runs_the_calibrated_machine_and_the_others_keep_their_ids():
     import json
-    from analysis.config import load_machine
-    from analysis.run_spec import plan
+    from analysis.core.config import load_machine
+    from analysis.core.run_spec import plan
     for preset in ("validation_surface", "validation_literal"):
         p = plan("clay", preset)
         tool = load_machine(p["preset"]["machine"])["tool"]

@@ -6,9 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis import compare
-from analysis.config import ROOT, ConfigError, Seedling, load_criteria, threshold
-from analysis.metrology import DEPTHS, measure_hole, measure_state, side_profile
+from analysis.holes import compare
+from analysis.core.config import ROOT, ConfigError, Seedling, load_criteria, threshold
+from analysis.holes.metrology import DEPTHS, measure_hole, measure_state, side_profile
 from synthetic import carve, four_section_length, four_section_width, lattice_bed
 
 L0, W, STRAIGHT, TAPER, H1 = 92.0, 50.0, 45.0, 25.0, 13.0

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from analysis.pepper import (check_dead_point, closure_residual, dead_point_margin, load_linkage, loop_metrics, motion,
+from analysis.pepper.pepper import (check_dead_point, closure_residual, dead_point_margin, load_linkage, loop_metrics, motion,
                              solve, trajectory_metrics)
 
 OMEGA = 2 * math.pi                                   # 60 plants/min
@@ -120,8 +120,8 @@ def test_a_path_without_a_loop_reports_none():
 
 def test_the_travel_sign_is_a_reading_of_the_text():
     """Eq 16's +vt and §2's direction give different paths from the same linkage; any other sign is refused."""
-    from analysis.config import ConfigError
-    from analysis.pepper import check_travel_sign
+    from analysis.core.config import ConfigError
+    from analysis.pepper.pepper import check_travel_sign
     link = load_linkage("designed")
     plus, minus = (trajectory_metrics(link, 300.0, OMEGA, sign=s) for s in (1, -1))
     assert plus["height"] == pytest.approx(minus["height"])          # the sign moves the path, not its height
@@ -131,7 +131,7 @@ def test_the_travel_sign_is_a_reading_of_the_text():
 
 
 def test_goal_attainment_improves_every_goal_from_the_initial_values():
-    from analysis.pepper_design import design, goal_values, load_goals, margins, ranges, values
+    from analysis.pepper.pepper_design import design, goal_values, load_goals, margins, ranges, values
     goals, bounds = load_goals(), ranges()
     start = load_linkage("initial")
     F0 = goal_values(start, goals, 3601)
@@ -146,8 +146,8 @@ def test_goal_attainment_improves_every_goal_from_the_initial_values():
 
 
 def test_bad_goals_are_a_clear_error(tmp_path):
-    from analysis.config import ConfigError
-    from analysis.pepper_design import load_goals
+    from analysis.core.config import ConfigError
+    from analysis.pepper.pepper_design import load_goals
     text = open("configs/pepper.toml").read().replace("weight = [1.0, 1.0, 1.0]", "weight = [1.0, 0.0, 1.0]")
     (tmp_path / "p.toml").write_text(text)
     with pytest.raises(ConfigError, match="goals.weight"):
@@ -155,14 +155,14 @@ def test_bad_goals_are_a_clear_error(tmp_path):
 
 
 def test_frame_inference_recovers_a_known_frame(monkeypatch):
-    """The frame fit (analysis/pepper_frame.py) finds a frame again from the quantities it produces: stated
+    """The frame fit (analysis/pepper/pepper_frame.py) finds a frame again from the quantities it produces: stated
     results made from a known frame (10 mm or more from a toggle in both columns) are met again from a start
     3 % off, each to < 0.5 weighted units (0.5 mm, 0.01 m/s, 0.015 s: the top and bottom are sampled every
     0.5° of crank). The frame's lengths L3 and L7 come back within 1 %; the rocker's pivot (L14, α) and θ5 are
     weakly determined by these quantities (fits from 1-3 % off end up to 30 % away in θ5 with the same misses),
     so a fitted frame is one of a family, as results/pepper/README.md says."""
     from scipy.optimize import least_squares
-    from analysis import pepper_frame as pf
+    from analysis.pepper import pepper_frame as pf
     x_true = np.array([131.887, math.radians(-115.757), 107.649, math.radians(-129.205), math.radians(71.026),
                        219.419])                         # L3, θ3, L14, α, θ5, L7: loops under both columns
     made = {c: {k: v for k, v in pf.observe(lk).items() if k in pf.WEIGHT}

@@ -10,10 +10,10 @@ import sys
 import pytest
 
 from analysis import cli
-from analysis.config import ROOT, ConfigError
-from analysis.io import read_table
-from analysis.batch import scene_args
-from analysis.study import case_from_table_line, export_batch, load_study
+from analysis.core.config import ROOT, ConfigError
+from analysis.core.io import read_table
+from analysis.batch.scenes import scene_args
+from analysis.batch.study import case_from_table_line, export_batch, load_study
 
 # one punch passage on the test strip, fast (fewer steps): studies here test the batch machinery
 TINY = {"soil": "clay", "preset": "test", "holes": 1, "lead_in": 0, "speed_kmh": 5.0}
@@ -117,7 +117,7 @@ def test_the_yade_batch_table_holds_the_same_cases(tmp_path):
 
 
 def test_several_studies_run_as_one_batch_with_a_shared_case_once(tmp_path, monkeypatch):
-    from analysis import study as study_mod
+    from analysis.batch import study as study_mod
     a = study_file(tmp_path, "a", {"slip": [0.0, 0.1]})
     (tmp_path / "b").mkdir()
     b = study_file(tmp_path / "b", "b", {"speed_kmh": [5.0, 4.0]})      # its 5 km/h case is a's slip 0 case
@@ -133,7 +133,7 @@ def test_several_studies_run_as_one_batch_with_a_shared_case_once(tmp_path, monk
 
 
 def test_a_slip_study_plots_the_theory_beside_the_holes(tmp_path):
-    from analysis.study import plot, theory_lines
+    from analysis.batch.study import plot, theory_lines
     lines = theory_lines("slip", [0.25, 0.0, 0.1, 0.0])
     table1 = lines["theory: Table 1"]
     assert table1["x"] == [0.0, 0.1, 0.25]
@@ -162,7 +162,7 @@ def test_a_one_hole_study_plots_without_an_all_nan_metric(tmp_path):
     """One hole per case has no spacing C: its panel is left empty, not drawn from NaN (a RuntimeWarning)."""
     import warnings
     import pandas as pd
-    from analysis.study import plot
+    from analysis.batch.study import plot
     nan = float("nan")
     table = pd.DataFrame({"run": ["a", "b"], "depth": [nan, 180.0], "L0": [100.0, 80.0], "L1": [50.0, 52.0],
                           "L2": [38.0, 27.0], "h1": [16.0, 19.0], "C": [nan] * 2, "pass_rate": [0.0, 0.0]})
@@ -176,8 +176,8 @@ def test_a_one_hole_study_plots_without_an_all_nan_metric(tmp_path):
 def test_a_committed_table_keeps_its_cases_on_a_new_machine(tmp_path, monkeypatch, capsys):
     """runs/ is not committed: on a new clone a study reruns only the cases missing from its table, and the
     table it rewrites keeps the rows it already had (same run id = same parameters, soil constants included)."""
-    from analysis import study as study_mod
-    from analysis.io import atomic_csv
+    from analysis.batch import study as study_mod
+    from analysis.core.io import atomic_csv
     import pandas as pd
     path = study_file(tmp_path, "kept", {"slip": [0.0, 0.1]})
     _, cases = load_study(path)
@@ -199,14 +199,14 @@ def test_a_committed_table_keeps_its_cases_on_a_new_machine(tmp_path, monkeypatc
 def test_a_stamp_names_the_code_the_process_runs(monkeypatch):
     """A paper run outlives sessions' commits: its table is stamped with the commit the process loaded, and
     says so when the checkout moved on while it ran."""
-    from analysis import io
+    from analysis.core import io
     assert f"at commit {io.head()} on" in io.stamp("x")
     monkeypatch.setattr(io, "LOADED", "0000000")
     assert f"at commit 0000000 (the checkout moved to {io.head()} while it ran) on" in io.stamp("x")
 
 
 def test_a_case_that_cannot_be_measured_is_reported_and_the_table_still_updates(tmp_path, monkeypatch, capsys):
-    from analysis import study as study_mod
+    from analysis.batch import study as study_mod
     path = study_file(tmp_path, "three", {"slip": [0.0, 0.1, 0.2]})
     _, cases = load_study(path)
 

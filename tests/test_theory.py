@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from analysis import theory
+from analysis.holes import theory
 
 SLIPS = [0.0, 0.1, 0.25]
 

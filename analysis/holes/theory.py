@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.config import Disk
+from analysis.core.config import Disk
 
 READINGS = ("printed", "rigid")
 

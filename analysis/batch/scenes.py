@@ -13,7 +13,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
-from analysis.config import ROOT, ConfigError
+from analysis.core.config import ROOT, ConfigError
 
 _print_lock = threading.Lock()
 
@@ -47,7 +47,7 @@ def scene_args(fields: dict) -> list[str]:
 
 def plan_case(fields: dict) -> dict:
     """Check a case completely, as scripts/disk.py would (no YADE), and return its run parameters."""
-    from analysis.run_spec import plan_from_argv
+    from analysis.core.run_spec import plan_from_argv
     return plan_from_argv(scene_args(fields))
 
 

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.config import Resolution, load_seedling
-from analysis.io import atomic_csv, stamp
-from analysis.metrology import DEPTHS, measure_state
+from analysis.core.config import Resolution, load_seedling
+from analysis.core.io import atomic_csv, stamp
+from analysis.holes.metrology import DEPTHS, measure_state
 
 COLUMNS = ["run", "soil", "seed", "hole", "found", "x", "C", "h1", "L0", "L1", "L2", "L2_surface", "bottom", "grain_radius",
            "probe", "cell", *(f"l_{H}" for H in DEPTHS)]

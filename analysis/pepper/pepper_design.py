@@ -13,8 +13,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from analysis.config import ConfigError, read_toml
-from analysis.pepper import (ANGLES, SPREAD_READINGS, Linkage, assembly_margin, bottom_window, check_travel_sign,
+from analysis.core.config import ConfigError, read_toml
+from analysis.pepper.pepper import (ANGLES, SPREAD_READINGS, Linkage, assembly_margin, bottom_window, check_travel_sign,
                              dead_point_margin, linkage_to_config, load_linkage, motion, solve, trajectory,
                              trajectory_metrics)
 
@@ -32,8 +32,8 @@ class Goals:
     assembly_margin: float
     speed: float           # mm/s
     omega: float           # rad/s
-    sign: int = 1          # eq 16's travel sign (analysis/pepper.py TRAVEL_SIGNS)
-    spread_reading: str = "gap"    # analysis/pepper.py SPREAD_READINGS
+    sign: int = 1          # eq 16's travel sign (analysis/pepper/pepper.py TRAVEL_SIGNS)
+    spread_reading: str = "gap"    # analysis/pepper/pepper.py SPREAD_READINGS
 
 
 def load_goals(path="configs/pepper.toml") -> Goals:
@@ -246,7 +246,7 @@ def plot(columns: dict, goals: Goals, out, note: str):
 
 def run(out, command: str, starts: int = 6, path="configs/pepper.toml"):
     """Design from Table 2's initial column; write design.csv and the plots into `out`."""
-    from analysis.io import atomic_csv, stamp
+    from analysis.core.io import atomic_csv, stamp
     out.mkdir(parents=True, exist_ok=True)
     goals, bounds = load_goals(path), ranges(path)
     start, paper = load_linkage("initial", path), load_linkage("designed", path)

@@ -1,10 +1,10 @@
 """The machine's unknowns calibrated on clay, the other soils then predicted (seed 001 gives neither how deep the
-punches went nor the press sleeve's spring). No YADE: the runs are disk scenes (analysis/batch.py).
+punches went nor the press sleeve's spring). No YADE: the runs are disk scenes (analysis/batch/scenes.py).
 
     ./holes calibrate-machine [configs/studies/machine_clay.toml] [--no-run]
 
-The design is a study file (analysis/study.py) over the penetration P (`disk.penetration`) and the sleeve's
-spring rate (`sleeve.stiffness`), every case on clay. Each finished run is measured (analysis/measure.py) and
+The design is a study file (analysis/batch/study.py) over the penetration P (`disk.penetration`) and the sleeve's
+spring rate (`sleeve.stiffness`), every case on clay. Each finished run is measured (analysis/holes/measure.py) and
 kept with its grains in results/calibration/machine/runs/<id>/, so the fit can be made again anywhere; every
 hole is a row of results/calibration/machine.csv with its packing seed, P, spring rate, the mean vertical soil
 force on the disk W, and the hole's L2, L2_surface (= L2 + h1) and h1.
@@ -28,9 +28,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.batch import finished, run_all, say
-from analysis.config import MACHINE, ROOT, ConfigError
-from analysis.io import atomic_csv, atomic_write, read_table, stamp
+from analysis.batch.scenes import finished, run_all, say
+from analysis.core.config import MACHINE, ROOT, ConfigError
+from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
 DESIGN = ROOT / "configs/studies/machine_clay.toml"
 P_KEY, K_KEY = "disk.penetration", "sleeve.stiffness"
@@ -51,7 +51,7 @@ def targets(field: pd.DataFrame) -> dict:
 
 def load_design(path) -> list:
     """The design's cases, checked: every case on clay and with P and the spring rate given."""
-    from analysis.study import load_study
+    from analysis.batch.study import load_study
     _, cases = load_study(path)
     for c in cases:
         if c.params["soil"]["name"] != "clay":
@@ -96,8 +96,8 @@ def load_of(folder: Path, summary: dict, holes: int) -> float:
 
 def run_rows(case, folder: Path) -> pd.DataFrame:
     """One row per measured hole of a finished case: its fields, W, and the hole's measures."""
-    from analysis import measure
-    from analysis.compare import with_l2_surface
+    from analysis.holes import measure
+    from analysis.holes.compare import with_l2_surface
     summary = json.loads((folder / "summary.json").read_text())
     holes = measure.run(folder, pictures=False) if (folder / "state.npz").exists() else read_table(folder / "holes.csv")
     holes = with_l2_surface(holes)
@@ -162,10 +162,10 @@ def run(design=DESIGN, workers: int = 1, threads: int = 2, runs_dir=None, bed_di
     """Run the design's missing cases (unless `no_run`), measure and keep every finished one, write
     machine.csv (every hole) and machine_fit.csv (both variants), and each fitted variant's values to
     configs/machine.toml (`machine_path`), where a preset's `machine` key reads them."""
-    from analysis.bed_spec import BED_DIR
-    from analysis.batch import scene_args
-    from analysis.compare import field_table
-    from analysis.compare_job import keep
+    from analysis.core.bed_spec import BED_DIR
+    from analysis.batch.scenes import scene_args
+    from analysis.holes.compare import field_table
+    from analysis.holes.compare_job import keep
     cases = load_design(design)
     want = targets(field_table())
     runs_dir = Path(runs_dir or ROOT / "results/runs")

@@ -8,9 +8,9 @@ import json
 import numpy as np
 import pandas as pd
 
-from analysis.calibrate import TOLERANCE, cone_result_name
-from analysis.config import ROOT, SOILS, load_soil
-from analysis.io import atomic_csv, read_table, stamp
+from analysis.soil.calibrate import TOLERANCE, cone_result_name
+from analysis.core.config import ROOT, SOILS, load_soil
+from analysis.core.io import atomic_csv, read_table, stamp
 
 CAL = ROOT / "results/calibration"
 

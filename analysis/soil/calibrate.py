@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.batch import run_process, say
-from analysis.config import ROOT, ConfigError, load_soil
-from analysis.io import atomic_csv, atomic_write, read_table, stamp
+from analysis.batch.scenes import run_process, say
+from analysis.core.config import ROOT, ConfigError, load_soil
+from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
 TOLERANCE = 0.05
 COHESION_KEYS = ("normal_cohesion", "shear_cohesion")   # calibrated together, kept equal
@@ -95,8 +95,8 @@ def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesio
     """One cone scene in its own YADE process; its progress lines are echoed (prefixed with `tag`) as it runs.
     Returns its summary; a run of the same bed, cone, speed and bond strength already in results/cone/
     (`stored_cone`) is reused."""
-    from analysis.config import load_resolution
-    from analysis.bed_spec import bed_key, check_size
+    from analysis.core.config import load_resolution
+    from analysis.core.bed_spec import bed_key, check_size
     bed = bed_key(load_soil(soil), load_resolution(resolution), check_size([float(v) / 1000 for v in size.split(",")]),
                   seed, lateral, tiles)
     if found := stored_cone(bed, cone_scale, speed, cohesion):

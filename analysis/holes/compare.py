@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.config import ROOT, load_disk, load_seedling
-from analysis.io import read_table
+from analysis.core.config import ROOT, load_disk, load_seedling
+from analysis.core.io import read_table
 
 METRICS = ("L0", "L1", "L2", "L2_surface", "h1", "C")
 FIELD_COLUMN = {"L2_surface": "L2"}   # the field's one L2, read from the undisturbed surface (§4.2's other reading)
@@ -47,7 +47,7 @@ def theory_values(disk_path="configs/disk.toml", slip: float | None = None) -> d
       (nearest tabulated), and C = 2πR(1-δ)/N (eq 6);
     - "envelope": the exact swept envelope of the rigid punch: L0 and L1 at the surface, L2 from the surface
       to where the swept section's smaller extent falls to √2·a2, and C."""
-    from analysis.theory import hole_profile, hole_spacing
+    from analysis.holes.theory import hole_profile, hole_spacing
     disk = load_disk(disk_path)
     slip = disk.slip if slip is None else slip
     prof = hole_profile(disk, slip)

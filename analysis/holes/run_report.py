@@ -10,13 +10,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.metrology import probed_surface
+from analysis.holes.metrology import probed_surface
 
 
 def draw_disk(ax, cfg, summary):
     """The punches (and their sleeves at rest) in the disk plane at the end of the run, from the layout."""
-    from analysis.config import disk_from_dict
-    from analysis.kinematics import TIP_SPHERE_RATIO, punch_outline, to_axis_frame
+    from analysis.core.config import disk_from_dict
+    from analysis.core.kinematics import TIP_SPHERE_RATIO, punch_outline, to_axis_frame
     disk = disk_from_dict({k: v for k, v in cfg["disk"].items() if k != "name"})
     lay = cfg["layout"]
     theta = lay["omega"] * summary["sim_time_s"]

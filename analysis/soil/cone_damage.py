@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.config import ConfigError
-from analysis.io import atomic_csv, stamp
+from analysis.core.config import ConfigError
+from analysis.core.io import atomic_csv, stamp
 
 FAR = 0.10          # broken fraction drawn as the plot's guide line
 REACH = 0.9         # the reach: the radius holding this share of the broken bonds

@@ -1,5 +1,5 @@
 """Parameter studies (`./holes study configs/studies/NAME.toml [MORE.toml ...]`): a grid or a list of cases over run fields,
-each case one disk scene (analysis/batch.py), one tidy table per study in results/studies/NAME.csv.
+each case one disk scene (analysis/batch/scenes.py), one tidy table per study in results/studies/NAME.csv.
 
 A study file:
     [study]   name, description
@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.batch import finished, plan_case, run_all, say, scene_args
-from analysis.compare import RESIDUAL_LIMIT, residual_pct
-from analysis.config import ROOT, ConfigError, load_criteria, read_toml
-from analysis.io import atomic_csv, atomic_write, read_table, stamp
+from analysis.batch.scenes import finished, plan_case, run_all, say, scene_args
+from analysis.holes.compare import RESIDUAL_LIMIT, residual_pct
+from analysis.core.config import ROOT, ConfigError, load_criteria, read_toml
+from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
 METRICS = ("L0", "L1", "L2", "h1", "C")
 
@@ -73,7 +73,7 @@ def case_row(case: Case, runs_dir: Path, criteria: dict) -> dict:
     """One tidy row: the case's fields, its cost and its holes' means and pass rate (stated reading); `found`
     counts the holes found where the punch entered (the means are over those, the pass rate over all);
     slip_holes: the mean slip between consecutive holes' entries (eq 1, summary.json)."""
-    from analysis import measure
+    from analysis.holes import measure
     run = runs_dir / case.id
     summary = json.loads((run / "summary.json").read_text())
     holes = measure.run(run)
@@ -139,7 +139,7 @@ def theory_lines(x: str, values) -> dict[str, dict]:
     Other studies get none."""
     if x != "slip":
         return {}
-    from analysis.compare import theory_values
+    from analysis.holes.compare import theory_values
     slips = sorted(set(float(v) for v in values))
     th = [theory_values(slip=s) for s in slips]
     return {label: {"x": slips, **{m: [t[key].get(m, np.nan) for t in th] for m in METRICS}}
@@ -212,7 +212,7 @@ def plot_length_at_depth(table: pd.DataFrame, path: Path, note: str):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from analysis.io import read_table
+    from analysis.core.io import read_table
     t1 = read_table(ROOT / "configs/field/table1.csv")
     cols = [c for c in table.columns if c.startswith("l_")]
     depths = [int(c[2:]) for c in cols]
@@ -239,7 +239,7 @@ def run(paths, workers: int = 1, threads: int = 2, scheduler: str | None = None,
         out=None, no_run: bool = False) -> int:
     """Run one or more studies as one batch (a case two studies share, such as the baseline, runs once), each
     study's table rewritten as its cases finish; with no_run, only tabulate the cases that finished."""
-    from analysis.bed_spec import BED_DIR
+    from analysis.core.bed_spec import BED_DIR
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
     studies = [(path, *load_study(path)) for path in paths]
     names = [head["name"] for _, head, _ in studies]

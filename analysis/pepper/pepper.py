@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from analysis.config import ConfigError, read_toml
+from analysis.core.config import ConfigError, read_toml
 
 
 @dataclass(frozen=True)

@@ -19,14 +19,14 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis import compare, measure
-from analysis.batch import finished, plan_case, run_all, say, scene_args
-from analysis.config import ROOT, load_criteria, load_preset
-from analysis.machine import TARGET_METRICS, load_of
-from analysis.io import atomic_csv, atomic_write, read_table, stamp
+from analysis.holes import compare, measure
+from analysis.batch.scenes import finished, plan_case, run_all, say, scene_args
+from analysis.core.config import ROOT, load_criteria, load_preset
+from analysis.holes.machine import TARGET_METRICS, load_of
+from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
 KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # a run's files kept beside the table
-KEPT_IF_THERE = ("load.json",)      # the calibrated machine's load W (analysis/machine.py load_of)
+KEPT_IF_THERE = ("load.json",)      # the calibrated machine's load W (analysis/holes/machine.py load_of)
 
 
 def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, parallel: int = 1,
@@ -34,7 +34,7 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
         no_run: bool = False, kept_runs: bool = False, scheduler: str | None = None) -> int:
     """Run what is missing (unless `no_run`: then only the finished runs are measured; with `kept_runs`, runs
     kept beside the table are not missing; on a Dask cluster's workers with `scheduler`), measure, compare."""
-    from analysis.bed_spec import BED_DIR
+    from analysis.core.bed_spec import BED_DIR
     runs_dir = Path(runs_dir or ROOT / "results/runs")
     bed_dir = Path(bed_dir or BED_DIR)
     out = Path(out or ROOT / "results")
@@ -135,7 +135,7 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     bound = float(table[table.metric == "L2"].theory_envelope.iloc[0])     # the swept envelope's L2
     reach = compare.depth_reach(field[field.soil.isin(set(holes.soil))], holes, bound)
     atomic_csv(reach, folder / f"{preset}-depth_reach.csv", "L2 + h1 per field run and simulated soil; see "
-               "analysis/compare.py depth_reach")
+               "analysis/holes/compare.py depth_reach")
     per_soil = []
     for soil, g in reach.groupby("soil", sort=False):
         fld, sim = g[g.source != "simulated"].L2_plus_h1, g[g.source == "simulated"].L2_plus_h1
@@ -149,12 +149,12 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
             loads.setdefault(soil, []).append(json.loads(f.read_text())["W_n"])
     if loads:
         md += ("\nThe load the machine must carry, W (the mean vertical soil force on the disk's punches and plates "
-               "over the measured holes' punch periods, `analysis/machine.py`): "
+               "over the measured holes' punch periods, `analysis/holes/machine.py`): "
                + ", ".join(f"{soil} {sum(w) / len(w):.0f} N" for soil, w in loads.items()) + ".\n")
     trend = compare.position_trend(holes)
     if not trend.empty:
         atomic_csv(trend.round(3), folder / f"{preset}-position_trend.csv", "per run and metric, the slope against "
-                   "the hole's place along the strip (mm per hole), 95 % interval; see analysis/compare.py position_trend")
+                   "the hole's place along the strip (mm per hole), 95 % interval; see analysis/holes/compare.py position_trend")
         found = trend[trend.trend]
         md += (f"\nHoles along the strip (are a run's holes exchangeable?): of {len(trend)} run-metric slopes, "
                f"{len(found)} with a 95 % interval excluding 0"
@@ -171,7 +171,7 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     atomic_write(out / "comparison.md", "\n".join(p.read_text() for p in mds))
     compare.plot(table[table.preset == preset], holes, field, preset, folder, note)
     atomic_csv(compare.field_consistency(field, criteria["stated"]), folder / "field_consistency.csv",
-               "can each field run's pass rate be true under the stated criteria? see analysis/compare.py")
+               "can each field run's pass rate be true under the stated criteria? see analysis/holes/compare.py")
     for c in local:
         if c["seed"] == min(seeds):
             for name in ("holes_top.png", "holes_sections.png"):

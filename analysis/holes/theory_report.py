@@ -11,9 +11,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from analysis import theory
-from analysis.config import ROOT, Disk
-from analysis.io import atomic_csv, read_table, stamp
+from analysis.holes import theory
+from analysis.core.config import ROOT, Disk
+from analysis.core.io import atomic_csv, read_table, stamp
 
 SLIPS = (0.0, 0.10, 0.20, 0.25)
 DEPTHS = np.arange(5, 61, 5)

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.config import ROOT, load_preset, load_resolution, load_soil
-from analysis.io import atomic_csv, machine, read_table, stamp
+from analysis.core.config import ROOT, load_preset, load_resolution, load_soil
+from analysis.core.io import atomic_csv, machine, read_table, stamp
 
 METRICS = ("L0", "L1", "L2", "h1")
 STUDY = ROOT / "configs/studies/speed_vs_error.toml"
@@ -224,7 +224,7 @@ def plot_economies(e: pd.DataFrame, path: Path, note: str):
 def study_table(study_path: Path, workers: int, threads: int, runs_dir, bed_dir, out: Path, no_run: bool):
     """Run a study's cases (finished ones are reused; none with no_run) into out/cases: the exit code, the
     study's name and its table (None if no case finished)."""
-    from analysis import study
+    from analysis.batch import study
     code = study.run(study_path, workers, threads, None, runs_dir, bed_dir, out / "cases", no_run)
     name = study.load_study(study_path)[0]["name"]
     path = out / "cases" / f"{name}.csv"
@@ -252,7 +252,7 @@ def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_ru
     are not pooled: a study's cases share one soil calibration, and two studies made at different commits need
     not (speed_vs_error's cases were made with the first calibration's clay bond, its packings study with the
     third's)."""
-    from analysis.compare import field_table
+    from analysis.holes.compare import field_table
     out = Path(out or ROOT / "results/bench")
     codes = []
     for study_path in study_paths:

@@ -12,8 +12,8 @@ Every case is one of the text's readings:
   only shift P's path and no stated result depends on them; `relative`, β the angle between DM and MP
   (Table 1) with Table 2's β (designed: "4.8" read as rad); `relative, designed β free`: the designed β
   fitted too (the printed 4.8 taken as a misprint);
-- eq (16)'s travel sign (analysis/pepper.py TRAVEL_SIGNS): +vt as printed, or -vt as §2's direction gives;
-- the spread (analysis/pepper.py SPREAD_READINGS): the gap between entry and exit paths at one level, or the
+- eq (16)'s travel sign (analysis/pepper/pepper.py TRAVEL_SIGNS): +vt as printed, or -vt as §2's direction gives;
+- the spread (analysis/pepper/pepper.py SPREAD_READINGS): the gap between entry and exit paths at one level, or the
   path's horizontal extent below the ridge surface;
 and one of two TARGETS: the designed column's geometry alone (height, depth, spread), or both columns and all
 stated results. The search is global then local: SCREEN random frames per case are scored, and the best
@@ -32,9 +32,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from analysis.pepper import (SPREAD_READINGS, TRAVEL_SIGNS, Linkage, assembly_margin, dead_point_margin,
+from analysis.pepper.pepper import (SPREAD_READINGS, TRAVEL_SIGNS, Linkage, assembly_margin, dead_point_margin,
                              linkage_to_config, load_linkage, motion, trajectory_metrics)
-from analysis.pepper_design import load_goals
+from analysis.pepper.pepper_design import load_goals
 
 STATED = {"initial": {"height": 265.0, "depth": 102.1, "spread": 21.6, "v_top": 0.306, "v_bottom": 0.285,
                       "t_top_to_bottom": 0.38},
@@ -129,7 +129,7 @@ def draw_frame(rng, k: int) -> np.ndarray:
     """A random frame (L3, θ3, L14, α, θ5, L7[, designed β]) that the designed column can assemble: the guide
     C within the rod's reach, and the rocker's pivot G placed so that D - G - L5∠θ5 stays inside the ring
     [|L6 - L4|, L6 + L4] along the cycle (uniform draws in the box LO-HI almost never assemble)."""
-    from analysis.pepper import crank_guide
+    from analysis.pepper.pepper import crank_guide
     link = table2("designed")
     while True:
         x = LO[:k] + rng.random(k) * (HI[:k] - LO[:k])
@@ -213,7 +213,7 @@ def run(out, command: str, screen: int = SCREEN, workers: int = 1, progress=None
     and the frame, per case."""
     import pandas as pd
     from concurrent.futures import ProcessPoolExecutor
-    from analysis.io import atomic_csv, stamp
+    from analysis.core.io import atomic_csv, stamp
     out.mkdir(parents=True, exist_ok=True)
     todo, rows, t0 = cases(), [], time.time()
     with ProcessPoolExecutor(workers) as pool:

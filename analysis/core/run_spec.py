@@ -9,10 +9,10 @@ import hashlib
 import json
 import math
 
-from analysis.bed_spec import BED_DIR, check_graded
-from analysis.config import (SEED, SLIP, THREADS, CommandLine, ConfigError, Field, as_dict, load_disk, load_machine, load_preset, load_resolution,
+from analysis.core.bed_spec import BED_DIR, check_graded
+from analysis.core.config import (SEED, SLIP, THREADS, CommandLine, ConfigError, Field, as_dict, load_disk, load_machine, load_preset, load_resolution,
                              load_sleeve, load_soil, option, parse_overrides, preset_with, soil_with, tool_with)
-from analysis.kinematics import TIP_SPHERE_RATIO, layout
+from analysis.core.kinematics import TIP_SPHERE_RATIO, layout
 
 CHECKPOINT_EVERY = 600.0    # s of wall time between checkpoints of an unfinished run (0: none)
 RUN_FIELDS = {"slip": SLIP,

@@ -19,10 +19,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.io import atomic_csv, stamp
-from analysis.config import load_seedling
-from analysis.measure import hole_tool, measure_run
-from analysis.metrology import h1_band, measure_hole, side_profile
+from analysis.core.io import atomic_csv, stamp
+from analysis.core.config import load_seedling
+from analysis.holes.measure import hole_tool, measure_run
+from analysis.holes.metrology import h1_band, measure_hole, side_profile
 
 CUTS = (0.0, 0.5, 1.0, 1.5, 2.0)      # the opening's cut below −h1, in probe radii (1: the rule)
 

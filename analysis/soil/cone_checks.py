@@ -26,13 +26,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.batch import say
-from analysis.calibrate import cone_index, cone_run, same_cohesion, stored_cone
-from analysis.calibration_report import CAL, core_density
-from analysis.config import ROOT, SEED, ConfigError, Field, check_lateral, check_table, load_resolution, load_soil, read_toml
-from analysis.io import atomic_csv, read_table, stamp
-from analysis.bed_spec import TILES, bed_key, check_size, check_tiles
-from analysis.config import CONE_FIELDS
+from analysis.batch.scenes import say
+from analysis.soil.calibrate import cone_index, cone_run, same_cohesion, stored_cone
+from analysis.soil.calibration_report import CAL, core_density
+from analysis.core.config import ROOT, SEED, ConfigError, Field, check_lateral, check_table, load_resolution, load_soil, read_toml
+from analysis.core.io import atomic_csv, read_table, stamp
+from analysis.core.bed_spec import TILES, bed_key, check_size, check_tiles
+from analysis.core.config import CONE_FIELDS
 
 CHECKS = ("replicate", "width", "ratio", "tiled")
 CASE_FIELDS = {"check": Field(kind=str), "soil": Field(kind=str), "resolution": Field(kind=str),

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis import pepper
-from analysis.io import atomic_csv
-from analysis.measure import measure_run, plot
+from analysis.pepper import pepper
+from analysis.core.io import atomic_csv
+from analysis.holes.measure import measure_run, plot
 
 FILES = ("hole.csv", "summary.json", "holes_top.png", "holes_sections.png", "pass.png")
 
@@ -44,8 +44,8 @@ def run(folder, dest: Path | None = None):
     table["path_depth"] = summary["path_depth_mm"]
     table["tip_min_depth"] = summary["tip_min_depth_mm"][0]
     atomic_csv(table.round(2), folder / "hole.csv",
-               "the duck-beak's hole (mm) measured by analysis/metrology.py as seed 001 §4.2 measures a punch hole; "
-               "path_depth: the linkage's loop depth (analysis/pepper.py); tip_min_depth: the tip's deepest")
+               "the duck-beak's hole (mm) measured by analysis/holes/metrology.py as seed 001 §4.2 measures a punch hole; "
+               "path_depth: the linkage's loop depth (analysis/pepper/pepper.py); tip_min_depth: the tip's deepest")
     plot(folder, loaded, holes, z_surface, surf)
 
     xs, ys, S = surf

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.config import ROOT
+from analysis.core.config import ROOT
 
 
 def head() -> str:

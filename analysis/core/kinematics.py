@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.config import ConfigError, Disk
-from analysis.theory import punch_section
+from analysis.core.config import ConfigError, Disk
+from analysis.holes.theory import punch_section
 
 TIP_SPHERE_RATIO = 0.2      # blunt tip: inscribed sphere radius / punch radius (scripts/disk_parts.py builds it)
 START_MARGIN_DEG = 3.0      # punch 0 starts this far before it first touches the surface

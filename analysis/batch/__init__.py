@@ -1,0 +1,1 @@
+"""Many scenes at once: batches (local workers or Dask), parameter studies, benchmarks."""

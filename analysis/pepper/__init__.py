@@ -1,0 +1,1 @@
+"""Seed 000: the pepper transplanter's duck-beak planting mechanism, its design and its punch's report."""
