@@ -214,6 +214,12 @@ def test_soil_ordering_is_resolved_only_when_the_intervals_part():
     wide, narrow = compare.ordering(table(12.0))["L0"], compare.ordering(table(1.0))["L0"]
     assert wide["field"] and wide["simulated"] and not wide["resolved"] and not wide["tie"]
     assert narrow["simulated"] and narrow["resolved"]
+    # each step on its own: loam's interval pulled down to sand's leaves only clay > loam resolved
+    t = table(1.0)
+    t.loc[t.soil == "loam", "ci_lo"] = 117.0
+    steps = compare.ordering(t)["L0"]["steps"]
+    assert steps["clay > loam"]["resolved"] and not steps["loam > sand"]["resolved"]
+    assert steps["loam > sand"]["simulated"] and not compare.ordering(t)["L0"]["resolved"]
 
 
 def test_soil_ordering_of_equal_rates_is_a_tie():

@@ -246,17 +246,19 @@ def ordering(table: pd.DataFrame) -> dict:
     """The field's soil ordering clay > loam > sand, checked on the simulated means of L0, L2, pass rate;
     `tie`: two soils' simulated means are equal at the table's precision (0.1), as zero pass rates are, so the
     ordering is neither shown nor refuted; `resolved`: the simulation shows it beyond its scatter (each soil's
-    95 % interval above the next one's)."""
+    95 % interval above the next one's); `steps`: each step (clay > loam, loam > sand) shown and resolved apart."""
     out = {}
-    for m in ("L0", "L2", "pass_stated", "pass_field"):
+    for m in ("L0", "L2", "L2_surface", "pass_stated", "pass_field", "pass_stated_surface", "pass_field_surface"):
         t = table[table.metric == m].set_index("soil")
         if not {"clay", "loam", "sand"} <= set(t.index):
             continue
         s = t.sim_mean.round(1)
         tie = bool(s.clay == s.loam or s.loam == s.sand)
+        steps = {f"{a} > {b}": {"simulated": bool(s[a] > s[b]), "resolved": bool(t.ci_lo[a] > t.ci_hi[b])}
+                 for a, b in (("clay", "loam"), ("loam", "sand"))}
         out[m] = {"field": bool(t.field_mean.clay > t.field_mean.loam > t.field_mean.sand),
                   "simulated": bool(s.clay > s.loam > s.sand), "tie": tie,
-                  "resolved": bool(t.ci_lo.clay > t.ci_hi.loam and t.ci_lo.loam > t.ci_hi.sand)}
+                  "resolved": all(v["resolved"] for v in steps.values()), "steps": steps}
     return out
 
 

@@ -125,10 +125,12 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     if missing:
         cost += f" Asked for but not in this table (no finished run: failed or not run): {', '.join(missing)}."
     order = compare.ordering(table)
-    overlap = " (not resolved: the soils' 95 % intervals overlap)"
-    order_text = "; ".join(f"{m}: field clay > loam > sand {'yes' if o['field'] else 'no'}, simulated "
-                           f"{'tie' if o['tie'] else 'yes' if o['simulated'] else 'no'}"
-                           f"{'' if o['resolved'] else overlap}" for m, o in order.items())
+    order_text = "; ".join(
+        f"{m}: field {'yes' if o['field'] else 'no'}, simulated "
+        + ("tie" if o["tie"] else ", ".join(f"{step} {'yes' if v['simulated'] else 'no'} "
+                                             f"({'resolved' if v['resolved'] else 'not resolved'})"
+                                             for step, v in o["steps"].items()))
+        for m, o in order.items())
     md = compare.markdown(table.drop(columns="preset"), preset, note + "\n\n" + cost)
     if order_text:
         md += f"\nSoil ordering (clay > loam > sand): {order_text}.\n"
