@@ -41,7 +41,7 @@ from pathlib import Path
 
 from analysis.core.config import load_soil
 from analysis.core.io import atomic_write, provenance
-from analysis.core.kinematics import TIP_SPHERE_RATIO, slip_between_holes
+from analysis.core.kinematics import TIP_SPHERE_RATIO, inertial_number, slip_between_holes
 from analysis.core.run_spec import CHECKPOINT_EVERY
 from scripts.parts import (GRAIN_MASK, GUARD_EVERY, GUARD_SPEED, TOOL_SELF, as_tool, band, circle, guard,
                            open_run_folder, punch_surface, save_state, start_scene)
@@ -444,7 +444,9 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
     wall0, cpu0 = time.time(), time.process_time()
     reach = disk.R * MM                     # m: the tools' reach from the axis, whichever way a punch points
     tool_box = (lay.x_axis0 * MM - reach, (lay.x_axis0 + lay.speed * lay.t_end) * MM + reach, lay.H0 * MM + reach)
-    data, grain_ids, steel, z_surface, bed_mass = start_scene(soil, bed_path, meta, threads, 0.2, tool_box)
+    k_density = params.get("density_scale", 1.0)    # density scaling: grains k × heavier, gravity on them ÷ k
+    data, grain_ids, steel, z_surface, bed_mass = start_scene(soil, bed_path, meta, threads, 0.2, tool_box,
+                                                              density_scale=k_density)
     from yade import O, PyRunner, Vector3, utils
     from scripts import soil as part
     n_particles = len(grain_ids)
@@ -459,7 +461,8 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         recorder(*motion.step())
 
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[
-        PyRunner(command="hook()", iterPeriod=1, label="hook"), *motion.engines], avoid_self_mask=AVOID_SELF)
+        PyRunner(command="hook()", iterPeriod=1, label="hook"), *motion.engines], avoid_self_mask=AVOID_SELF,
+        gravity=tuple(x / k_density for x in part.GRAVITY))
     import builtins
     builtins.hook = hook                    # PyRunner evaluates its command in YADE's global namespace
     O.dt = preset["dt_safety"] * utils.PWaveTimeStep()
@@ -557,6 +560,9 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
                                                 lay.phi0, lay.pitch, disk.R, len(lay.hole_x)),
                "axis_sink_mm": motion.sink_summary(O.iter),
                "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool.ids), "energy_J": energy,
+               "density_scale": k_density,
+               "inertial_number": inertial_number(tip_speed, disk.d * MM, 2 * meta["radius"],
+                                                  meta["grain_density"] * k_density, soil.cone_index),
                "awake": window.summary(n_particles, O.iter) if window else None}
     atomic_write(out / "summary.json", json.dumps(summary, indent=1))
     drop_checkpoint(out)

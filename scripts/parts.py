@@ -60,13 +60,15 @@ def open_run_folder(out_root: Path | None, params: dict, threads: int) -> Path:
     return out
 
 
-def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: float, tool_box=None):
+def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: float, tool_box=None,
+                density_scale: float = 1.0):
     """YADE started on `threads` with the bed part of a scene: the settled grains of bed_path (scripts/beds.py)
     in the soil's cohesive material (mask GRAIN_MASK), a steel material for tools and walls, and the
     container's walls `wall_above` m over the bed's top. A laterally periodic bed becomes a strip periodic
     across the travel: a YADE cell periodic in y with the bed's width W, and in x longer than everything the
     tools sweep (`tool_box` = (x_min, x_max, top over the surface) in m), so nothing meets its image along the
-    travel; end walls touch the bed's first and last grains. Returns (the bed's arrays, grain ids, steel
+    travel; end walls touch the bed's first and last grains. `density_scale` multiplies the grains' density
+    (density scaling: the scene divides gravity by it, so they weigh what they did). Returns (the bed's arrays, grain ids, steel
     material id, the bed's surface level z (m), the bed's mass (kg))."""
     import numpy as np
     from scripts.yadeboot import boot
@@ -78,7 +80,7 @@ def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: floa
     O.reset()
     data = np.load(bed_path)
     L, W, _ = meta["size_m"]
-    mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=True))
+    mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"] * density_scale, cohesive=True))
     steel = O.materials.append(part.steel_material(soil))
     grain_ids = O.bodies.append([utils.sphere(tuple(p), r, material=mat, mask=GRAIN_MASK)
                                  for p, r in zip(data["pos"], data["radius"])])

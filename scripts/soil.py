@@ -71,8 +71,8 @@ def periodic_cell(O, L: float, W: float, top: float):
 
 
 def engines(damping: float, cohesion_on_new_contacts: bool, cohesion_now: bool = False, extra=(),
-            avoid_self_mask: int = 0):
-    """Contact detection, the cohesive-frictional law, and Newton's integration under gravity.
+            avoid_self_mask: int = 0, gravity=GRAVITY):
+    """Contact detection, the cohesive-frictional law, and Newton's integration under `gravity` (m/s²).
     `cohesion_now` bonds the contacts that exist at the first step (a settled bed); bodies whose masks share
     a bit with `avoid_self_mask` never meet one another (tool parts)."""
     return [
@@ -86,7 +86,7 @@ def engines(damping: float, cohesion_on_new_contacts: bool, cohesion_now: bool =
             [Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=True, always_use_moment_law=True,
                                                        label="law")]),
         *extra,
-        NewtonIntegrator(gravity=GRAVITY, damping=damping, label="newton"),
+        NewtonIntegrator(gravity=gravity, damping=damping, label="newton"),
     ]
 
 

@@ -21,7 +21,8 @@ _print_lock = threading.Lock()
 PLAIN = {"soil": "--soil", "preset": "--preset", "seed": "--seed", "slip": "--slip", "speed_kmh": "--speed-kmh",
          "holes": "--holes", "lead_in": "--lead-in", "width": "--width", "depth": "--depth", "mode": "--mode",
          "resolution": "--resolution", "dt_safety": "--dt-safety", "awake": "--awake",
-         "weight": "--weight", "depth_stop": "--depth-stop", "disk_inertia": "--disk-inertia"}
+         "weight": "--weight", "depth_stop": "--depth-stop", "disk_inertia": "--disk-inertia",
+         "density_scale": "--density-scale"}
 PREFIXED = {"disk": "--tool", "sleeve": "--tool", "soil": "--set"}
 
 

@@ -146,3 +146,14 @@ def slip_between_holes(theta, x_axis, phi0: float, pitch: float, R: float, n_hol
     inside = (turned >= theta[0]) & (turned <= theta[-1])
     x = np.interp(turned, theta, x_axis)
     return [float(1.0 - (x[k + 1] - x[k]) / (R * pitch)) for k in range(n_holes - 1) if inside[k] and inside[k + 1]]
+
+
+def inertial_number(tip_speed: float, punch_d: float, grain_d: float, grain_density: float, pressure: float) -> float:
+    """The punch's inertial number I = γ̇·d·√(ρ/p): the shear rate γ̇ = tip speed / punch diameter, d the grain
+    diameter, ρ the grains' density (scaled with density scaling), p the soil's cone index (Table 2) as the
+    stress the punch works against. I < 1e-3 is quasi-static, where density scaling changes nothing.
+
+    >>> round(inertial_number(0.5, 0.05, 0.01, 3000.0, 450e3), 4)
+    0.0082
+    """
+    return float(tip_speed / punch_d * grain_d * np.sqrt(grain_density / pressure))

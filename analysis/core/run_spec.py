@@ -20,6 +20,8 @@ RUN_FIELDS = {"slip": SLIP,
               "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)"),
               "weight": Field(1.0, 5000.0, unit="N", meaning="load the disk carries (free mode)"),
               "awake": Field(0.0, 1000.0, unit="mm", meaning="awake soil behind / ahead of the tools' reach"),
+              "density_scale": Field(1.0, 100.0, meaning="density scaling: the grains k times heavier and gravity on "
+                                     "them k times weaker (their weight kept), so the time step is √k longer"),
               "depth_stop": Field(1.0, 500.0, unit="mm", meaning="deepest tip depth the limit device lets the disk "
                                   "sink to (free mode with a weight)")}
 MODES = ("prescribed", "free")
@@ -54,6 +56,7 @@ class RunSpec:
     weight: float | None = None
     depth_stop: float | None = None
     awake: tuple | list | None = None
+    density_scale: float | None = None
 
 
 def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
@@ -110,6 +113,8 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
         check_graded(res, [x / 1000 for x in params["bed_size_mm"]], preset.lateral)
     if awake is not None:                   # likewise
         params["awake_mm"] = awake
+    if spec.density_scale is not None and spec.density_scale != 1.0:     # likewise
+        params["density_scale"] = RUN_FIELDS["density_scale"].check("run.density_scale", spec.density_scale)
     if depth_stop is not None:              # likewise
         if weight is None:
             raise ConfigError(f"run.depth_stop = {depth_stop:g} mm needs a weight (free mode): allowed only where "
@@ -147,6 +152,9 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--mode", default="prescribed", help="prescribed | free")
     p.add_argument("--disk-inertia", type=float, default=0.05, help="kg·m², free mode")
     p.add_argument("--weight", type=float, help="N, free mode: the axis sinks under this load (default: held)")
+    p.add_argument("--density-scale", type=float, metavar="K",
+                   help="density scaling: grains K times heavier, gravity on them K times weaker, so the time step is "
+                   "sqrt(K) longer; the summary gives the inertial number (default 1: none)")
     p.add_argument("--depth-stop", type=float, metavar="MM",
                    help="mm, free mode with --weight: the limit device (seed 001 §1.2) stops the disk sinking once "
                    "its tips reach this depth (default: no stop)")
@@ -180,7 +188,7 @@ def awake_arg(text: str) -> list:
 def plan_args(a: argparse.Namespace) -> dict:
     return plan(RunSpec(a.soil, a.preset, a.disk, a.seed, a.mode, a.slip, a.speed_kmh, a.holes, a.lead_in, a.width,
                         a.depth, a.resolution, a.dt_safety, a.lateral, parse_overrides(a.set), parse_overrides(a.tool),
-                        a.disk_inertia, a.weight, a.depth_stop, a.awake))
+                        a.disk_inertia, a.weight, a.depth_stop, a.awake, a.density_scale))
 
 
 def plan_from_argv(argv: list[str]) -> dict:
