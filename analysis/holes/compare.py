@@ -209,7 +209,8 @@ def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: di
                          "inside_field_range": bool(lo <= p["pass_pct"] <= hi),
                          **agreement(p["pass_pct"], p["pass_lo"], p["pass_hi"], mean), "theory_table1": math.nan,
                          "theory_envelope": math.nan,
-                         "passed_holes": p["passed"], **energy, "calibration_target": False})
+                         "passed_holes": p["passed"], **energy,
+                         "calibration_target": (soil, f"pass_{reading}") in set(targets)})
     return pd.DataFrame(rows)
 
 
@@ -284,7 +285,8 @@ def markdown(table: pd.DataFrame, preset: str, note: str) -> str:
         marked = ", ".join(f"{r.soil} {r.metric}" for r in table[targets].itertuples())
         predicted = table[table.metric.isin(VALIDATED) & ~targets]
         passes = table[table.metric.str.startswith("pass") & ~targets]
-        lines += ["", f"Calibration targets (the machine was fitted to them; not predictions, not counted): {marked}.",
+        lines += ["", f"Calibration targets (the machine was fitted to them, or they follow from the fitted ones: "
+                  f"not predictions, not counted): {marked}.",
                   "", f"**Predicted: {int(predicted.within_10pct.sum())} of {len(predicted)} hole-metric means within "
                   f"{WITHIN_PCT:g} % of the field mean** ({', '.join(VALIDATED)} per soil, the targets left out), "
                   f"{int(predicted.field_in_ci.sum())} with the field mean inside the simulated 95 % interval, "

@@ -80,7 +80,7 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
         return 1
     holes = pd.concat(tables, ignore_index=True)
     field = compare.field_table()
-    targets = {("clay", m) for m in TARGET_METRICS[machine]} if machine else set()
+    targets = {("clay", m) for m in TARGET_METRICS} if machine else set()
     table = compare.compare(holes, field, compare.theory_values(), criteria, compare.residual_pct(summaries), targets)
     table.insert(0, "preset", preset)
     command = (f"./holes compare --preset {preset} --soils {','.join(soils)} --seeds {','.join(map(str, seeds))}"
