@@ -561,7 +561,7 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
                "axis_sink_mm": motion.sink_summary(O.iter),
                "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool.ids), "energy_J": energy,
                "density_scale": k_density,
-               "inertial_number": inertial_number(tip_speed, disk.d * MM, 2 * meta["radius"],
+               "inertial_number": inertial_number(tip_speed, disk.D * MM, 2 * meta["radius"],
                                                   meta["grain_density"] * k_density, soil.cone_index),
                "awake": window.summary(n_particles, O.iter) if window else None}
     atomic_write(out / "summary.json", json.dumps(summary, indent=1))
