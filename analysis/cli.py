@@ -117,7 +117,7 @@ def cmd_study(args) -> int:
             path = study.export_batch(args.file[0], Path(args.export_batch))
             print(f"wrote {path}; run it with: yade-batch {path} scripts/batch_case.py")
             return 0
-        return study.run(args.file, workers(args), args.threads, args.scheduler, args.runs_dir, args.bed_dir, args.out,
+        return study.run(args.file, args.workers, args.threads, args.scheduler, args.runs_dir, args.bed_dir, args.out,
                          args.no_run)
     except ConfigError as e:
         print(f"study: {e}", file=sys.stderr)
@@ -185,11 +185,11 @@ def cmd_bench(args) -> int:
         if not args.run:
             print("bench collider: give --run results/runs/<id>, a run with a checkpoint", file=sys.stderr)
             return 2
-        return run_scene("collider_bench.py", [args.run, "--steps", str(args.steps), "--threads", str(args.threads)])
+        return run_scene("collider_bench.py", [args.run, "--steps", str(args.steps), "--threads", str(args.threads or 2)])
     if args.what in ("speed-vs-error", "economies"):
         from analysis.batch import bench
         go = bench.run if args.what == "speed-vs-error" else bench.run_economies
-        return go(workers(args), args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run)
+        return go(args.workers, args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run)
     if args.what == "runs":
         from analysis.batch.bench import run_cost
         rows = []
@@ -236,16 +236,14 @@ def with_earlier(here, out: Path, key: str):
     return pd.concat([earlier[~earlier[key].isin(here[key])], here]).sort_values(key)
 
 
-def workers(args) -> int:
-    """Cases at a time: --workers, or as many as the cores hold at --threads each."""
-    import os
-    return args.workers or max(1, (os.cpu_count() or 1) // args.threads)
+SHARE_HELP = ("(default: shared out by the cases: side by side on one thread each when they fill the cores evenly or "
+              "their far field sleeps, else one at a time on every core; analysis/batch/scenes.py share_cores)")
 
 
-def scene_batch_options(p, threads: int, out_help: str):
-    """The options every batch of disk scenes shares (compare, study)."""
-    p.add_argument("--threads", type=option("--threads", THREADS), default=threads,
-                   help=f"YADE threads per run (default {threads})")
+def scene_batch_options(p, out_help: str):
+    """The options every batch of disk scenes shares (compare, study, calibrate-machine, bench)."""
+    p.add_argument("--workers", type=option("--workers", WORKERS), help="runs at a time " + SHARE_HELP)
+    p.add_argument("--threads", type=option("--threads", THREADS), help="YADE threads per run " + SHARE_HELP)
     p.add_argument("--runs-dir", help="runs folder (default results/runs)")
     p.add_argument("--bed-dir", help="beds folder (default results/beds)")
     p.add_argument("--out", help=out_help)
@@ -334,11 +332,7 @@ def build_parser() -> argparse.ArgumentParser:
                        "holes (results/calibration/machine.csv, machine_fit.csv)")
     p.add_argument("design", nargs="?", default="configs/studies/machine_clay.toml",
                    help="a study file over disk.penetration and sleeve.stiffness, clay only")
-    p.add_argument("--workers", type=option("--workers", WORKERS), default=1, help="runs at a time (default 1)")
-    p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads per run (default 2)")
-    p.add_argument("--runs-dir", help="runs folder (default results/runs)")
-    p.add_argument("--bed-dir", help="beds folder (default results/beds)")
-    p.add_argument("--out", help="folder of machine.csv and the kept runs (default results/calibration)")
+    scene_batch_options(p, "folder of machine.csv and the kept runs (default results/calibration)")
     p.add_argument("--no-run", action="store_true", help="measure and fit the finished or kept runs; run nothing")
     p.set_defaults(func=cmd_calibrate_machine)
     p = sub.add_parser("compare", help="the main job: run, measure and set the holes beside the field's Table 3")
@@ -346,10 +340,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--soils", default="clay,loam,sand")
     p.add_argument("--seeds", type=option("--seeds", SEED, many=True), default=[1],
                    help="packing seeds, one run each, e.g. 1,2,3")
-    p.add_argument("--workers", type=option("--workers", WORKERS), default=1, help="runs at a time (default 1)")
     p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786): the runs go to "
                    "its workers, as a study's cases do; default: local")
-    scene_batch_options(p, 2, "where comparison.csv/.md and comparison/ go (default results)")
+    scene_batch_options(p, "where comparison.csv/.md and comparison/ go (default results)")
     p.add_argument("--no-run", action="store_true", help="measure the finished runs only; run nothing")
     p.add_argument("--kept", action="store_true", help="a run not on this machine but kept beside the table "
                    "(<out>/comparison/runs/) is not run: it is measured again from its kept grains (state.npz), or "
@@ -357,9 +350,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
     p.add_argument("file", nargs="+", help="study file(s), e.g. configs/studies/slip.toml; several run as one batch")
-    p.add_argument("--workers", type=option("--workers", WORKERS), help="cases at a time (default: cores / threads)")
     p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786); default: local")
-    scene_batch_options(p, 1, "table folder (default results/studies)")
+    scene_batch_options(p, "table folder (default results/studies)")
     p.add_argument("--export-batch", metavar="TABLE", help="write a yade-batch parameter table instead of running")
     p.add_argument("--no-run", action="store_true", help="table and plot of the cases that finished; run nothing")
     p.set_defaults(func=cmd_study)
@@ -372,9 +364,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "economies", "peer", "collider"])
     p.add_argument("--run", help="collider: a run folder with a checkpoint")
     p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000, help="collider: steps per setting (default 3000)")
-    p.add_argument("--workers", type=option("--workers", WORKERS),
-                   help="speed-vs-error, economies: cases at a time (default: cores / threads)")
-    scene_batch_options(p, 1, "speed-vs-error, economies: table folder (default results/bench)")
+    scene_batch_options(p, "speed-vs-error, economies: table folder (default results/bench)")
     p.add_argument("--no-run", action="store_true",
                    help="speed-vs-error, economies: tabulate the finished cases only; run nothing")
     p.set_defaults(func=cmd_bench)

@@ -235,7 +235,7 @@ def plot_length_at_depth(table: pd.DataFrame, path: Path, note: str):
     plt.close(fig)
 
 
-def run(paths, workers: int = 1, threads: int = 2, scheduler: str | None = None, runs_dir=None, bed_dir=None,
+def run(paths, workers: int | None = None, threads: int | None = None, scheduler: str | None = None, runs_dir=None, bed_dir=None,
         out=None, no_run: bool = False) -> int:
     """Run one or more studies as one batch (a case two studies share, such as the baseline, runs once), each
     study's table rewritten as its cases finish; with no_run, only tabulate the cases that finished."""
@@ -254,7 +254,8 @@ def run(paths, workers: int = 1, threads: int = 2, scheduler: str | None = None,
         for c in cases:
             if c.id in rows[head["name"]]:
                 continue
-            batch.setdefault(c.id, {"id": c.id, "args": scene_args(c.fields), "tag": f"[{head['name']} {c.label()}]"})
+            batch.setdefault(c.id, {"id": c.id, "args": scene_args(c.fields), "tag": f"[{head['name']} {c.label()}]",
+                                    "asleep": bool(c.params.get("awake_mm"))})
             members.setdefault(c.id, []).append((path, head, cases))
 
     def write(path, head, cases):

@@ -29,7 +29,7 @@ KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # a run's fil
 KEPT_IF_THERE = ("load.json",)      # the calibrated machine's load W (analysis/holes/machine.py load_of)
 
 
-def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, parallel: int = 1,
+def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = None, parallel: int | None = None,
         runs_dir: Path | None = None, bed_dir: Path | None = None, out: Path | None = None,
         no_run: bool = False, kept_runs: bool = False, scheduler: str | None = None) -> int:
     """Run what is missing (unless `no_run`: then only the finished runs are measured; with `kept_runs`, runs
@@ -45,7 +45,8 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int = 2, paral
     kept = out / "comparison" / "runs"
     elsewhere = {c["id"] for c in cases if kept_runs and not finished(runs_dir, c["id"])
                  and (kept / c["id"] / "holes.csv").exists()}
-    batch = [{"id": c["id"], "tag": f"[{f['soil']} seed {f['seed']}]", "args": scene_args(f)}
+    batch = [{"id": c["id"], "tag": f"[{f['soil']} seed {f['seed']}]", "args": scene_args(f),
+              "asleep": bool(c.get("awake_mm"))}
              for f, c in zip(fields, cases) if c["id"] not in elsewhere]
     if no_run:
         failures = []

@@ -158,7 +158,7 @@ def fit(rows: pd.DataFrame, want: dict, n_boot: int = 2000, seed: int = 0) -> pd
     return pd.DataFrame(out)
 
 
-def run(design=DESIGN, workers: int = 1, threads: int = 2, runs_dir=None, bed_dir=None, out=None,
+def run(design=DESIGN, workers: int | None = None, threads: int | None = None, runs_dir=None, bed_dir=None, out=None,
         no_run: bool = False, scheduler: str | None = None, machine_path=None) -> int:
     """Run the design's missing cases (unless `no_run`), measure and keep every finished one, write
     machine.csv (every hole) and machine_fit.csv (both variants), and each fitted variant's values to
@@ -175,7 +175,8 @@ def run(design=DESIGN, workers: int = 1, threads: int = 2, runs_dir=None, bed_di
     kept = out / "machine" / "runs"
     failures = []
     if not no_run:
-        todo = [{"id": c.id, "tag": f"[machine {c.label()}]", "args": scene_args(c.fields)} for c in cases
+        todo = [{"id": c.id, "tag": f"[machine {c.label()}]", "args": scene_args(c.fields),
+                 "asleep": bool(c.params.get("awake_mm"))} for c in cases
                 if not (kept / c.id / "summary.json").exists()]
         failures = run_all(todo, workers, threads, runs_dir, bed_dir, scheduler=scheduler, label="calibrate-machine")
     tables = []
