@@ -41,7 +41,7 @@ from pathlib import Path
 
 from analysis.core.config import load_soil
 from analysis.core.io import atomic_write, provenance
-from analysis.core.kinematics import TIP_SPHERE_RATIO, inertial_number, slip_between_holes
+from analysis.core.kinematics import TIP_SPHERE_RATIO, inertial_number, slip_between_holes, wrapped
 from analysis.core.run_spec import CHECKPOINT_EVERY
 from scripts.parts import (GRAIN_MASK, GUARD_EVERY, GUARD_SPEED, TOOL_SELF, as_tool, band, circle, guard,
                            open_run_folder, punch_surface, save_state, start_scene)
@@ -145,8 +145,9 @@ class Motion:
         self.slides = [motion[f"plate_motion_{k}"].comb[3] for k in range(self.disk.N)]
 
     def angle(self, k: int) -> float:
-        """Punch k's angle from straight down now (φ falls as the disk turns)."""
-        return self.lay.phi0 + k * self.lay.pitch - self.state["theta"]
+        """Punch k's angle from straight down now, in [-π, π) (φ falls as the disk turns): on every pass, so a
+        punch's sleeve works and it is recorded on its second turn too."""
+        return wrapped(self.lay.phi0 + k * self.lay.pitch - self.state["theta"])
 
     def step(self):
         """One step's integration; returns (t, the axis's position) at the step's start."""
@@ -522,7 +523,8 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         motion.check_floor(preset["depth"])
         if O.iter % report < GUARD_EVERY or O.iter >= n_end:
             done = O.iter / n_steps
-            formed = sum(1 for k in range(len(lay.hole_x)) if motion.angle(k) < lay.phi_out)
+            formed = sum(1 for k in range(len(lay.hole_x))
+                         if lay.phi0 + k * lay.pitch - motion.state["theta"] < lay.phi_out)
             el = time.time() - wall0
             log(f"run: {100 * done:3.0f} %  travel {motion.v * O.time * 1000:5.0f}/{motion.v * lay.t_end * 1000:.0f} mm  "
                 f"holes {formed}/{len(lay.hole_x)}  wall {el:.0f} s  ETA {el / max(done, 1e-9) * (1 - done):.0f} s"

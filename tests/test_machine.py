@@ -123,3 +123,14 @@ def test_the_load_is_read_from_the_first_measured_hole_on_a_strip_longer_than_th
     in_soil = 41 * dt
     expected = (100 * 1 * in_soil / 2 + sum(100 * h * in_soil for h in range(2, 9))) / (8 * period)
     assert w == pytest.approx(expected, rel=0.05)
+
+
+def test_a_strip_whose_punches_turn_twice_is_a_new_run():
+    """Until 2026-11-26 a punch on its second turn had its sleeve held rigid (its angle was not wrapped): the
+    runs of strips longer than N holes changed, those of shorter strips did not."""
+    from analysis.core.kinematics import wrapped
+    from analysis.core.run_spec import plan
+    assert wrapped(0.3 - 2 * np.pi) == pytest.approx(0.3) and wrapped(np.pi) == pytest.approx(-np.pi)
+    assert plan("clay", "validation_surface")["punch_turns"] == 2
+    assert "punch_turns" not in plan("clay", "quick", holes=5)            # lead-in + 5 = 6 holes, one turn
+    assert plan("clay", "validation_surface")["id"] != "clay-validation_surface-prescribed-ed36d653"

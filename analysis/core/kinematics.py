@@ -157,3 +157,12 @@ def inertial_number(tip_speed: float, punch_d: float, grain_d: float, grain_dens
     0.0082
     """
     return float(tip_speed / punch_d * grain_d * np.sqrt(grain_density / pressure))
+
+
+def wrapped(phi: float) -> float:
+    """An angle in [-π, π): a punch's angle from straight down on whichever turn of the disk.
+
+    >>> [round(wrapped(x), 3) for x in (0.5, 0.5 - 2 * np.pi, 3.5, -3.5)]
+    [0.5, 0.5, -2.783, 2.783]
+    """
+    return float((phi + np.pi) % (2 * np.pi) - np.pi)

@@ -115,6 +115,10 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
         params["awake_mm"] = awake
     if spec.density_scale is not None and spec.density_scale != 1.0:     # likewise
         params["density_scale"] = RUN_FIELDS["density_scale"].check("run.density_scale", spec.density_scale)
+    if len(lay.hole_x) > disk.N:            # likewise
+        # punches on a second turn: until 2026-11-26 their sleeves were held rigid there (the punch's angle was not
+        # wrapped), so such a strip's runs from before are not these
+        params["punch_turns"] = math.ceil(len(lay.hole_x) / disk.N)
     if depth_stop is not None:              # likewise
         if weight is None:
             raise ConfigError(f"run.depth_stop = {depth_stop:g} mm needs a weight (free mode): allowed only where "
