@@ -106,7 +106,10 @@ class Motion:
     books the tools' work on the soil. `state` is what a checkpoint keeps."""
 
     def __init__(self, params: dict, disk, sleeve, lay, tool: Tool, axis0, g: float, floor_room: float):
-        from yade import RotationEngine, TranslationEngine
+        from yade import O, RotationEngine, TranslationEngine, Vector3, utils
+        # what `step` uses every step, bound once (YADE is started by now)
+        self._O, self._utils, self._Vector3 = O, utils, Vector3
+        self._x_dir, self._y_dir, self._z_dir = Vector3(1, 0, 0), Vector3(0, 1, 0), Vector3(0, 0, 1)
         self.disk, self.sleeve, self.lay, self.tool, self.axis0, self.g = disk, sleeve, lay, tool, axis0, g
         self.v = lay.speed * MM
         self.free = params["mode"] == "free"
@@ -151,7 +154,7 @@ class Motion:
 
     def step(self):
         """One step's integration; returns (t, the axis's position) at the step's start."""
-        from yade import O, Vector3, utils
+        O, Vector3, utils = self._O, self._Vector3, self._utils
         st, sleeve = self.state, self.sleeve
         m_s, k_s, c_s, g = self.m_s, self.k_s, self.c_s, self.g
         dt, t = O.dt, O.time
@@ -182,16 +185,15 @@ class Motion:
             self.slides[k].translationAxis = -ax
             self.slides[k].velocity = sdot
             slide_power += sdot * f_plate.dot(ax)
-        y_dir = Vector3(0, 1, 0)
-        torque = utils.sumTorques(self.tool.ids, y_dir, axis)
+        torque = utils.sumTorques(self.tool.ids, self._y_dir, axis)
         if self.free:                       # I dω/dt = M_y: the soil turns the disk
             st["omega"] += torque / self.inertia * dt
             self.rot.angularVelocity = st["omega"]
         # the tools' work on the soil at this step's velocities: P = -(F_x v + M_y ω [+ F_z v_z]) over every tool
         # body, + each plate's slide
-        power = slide_power - self.v * utils.sumForces(self.tool.ids, Vector3(1, 0, 0)) - st["omega"] * torque
+        power = slide_power - self.v * utils.sumForces(self.tool.ids, self._x_dir) - st["omega"] * torque
         if self.weight:                     # (W/g) dv_z/dt = F_z - W(t): the soil carries the disk
-            f_z = utils.sumForces(self.tool.ids, Vector3(0, 0, 1))
+            f_z = utils.sumForces(self.tool.ids, self._z_dir)
             st["vz"] += (f_z - self.weight * min(1.0, t / self.t_load)) * g / self.weight * dt
             if st["z"] + st["vz"] * dt < self.z_stop:       # on the stop: it takes what the soil does not carry
                 st["vz"] = (self.z_stop - st["z"]) / dt
@@ -234,10 +236,10 @@ class Recorder:
         self.state = {"tip_min": [math.inf] * motion.disk.N, "next_record": 0.0, "rows": []}
 
     def __call__(self, t, axis):
-        from yade import O, Vector3
         st, m, tool = self.state, self.motion, self.motion.tool
         if t < st["next_record"]:
             return
+        from yade import O, Vector3
         st["next_record"] += RECORD_DT
         for k in range(m.disk.N):
             phi = m.angle(k)
@@ -476,7 +478,6 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
     resumed = (out / CHECKPOINT).exists()
     if resumed:                             # go on from where an earlier process of this run stopped
         ck = load_checkpoint(out)
-        builtins.hook = hook
         O.trackEnergy = True
         motion.rebind(O.engines)
         law = part.contact_law(O)

@@ -309,8 +309,16 @@ class Preset:
         return d
 
 
+AWAKE = Field(0.0, 1000.0, unit="mm", meaning="awake soil behind / ahead of the tools' reach")
 PRESET_OPTIONAL = {"machine": Field(kind=str, meaning="a section of configs/machine.toml (the calibrated machine)"),
-                   "awake": Field(0.0, 1000.0, unit="mm", meaning="awake soil behind / ahead of the tools' reach")}
+                   "awake": AWAKE}
+
+
+def check_awake(where: str, value) -> list[float]:
+    """The awake window [BEHIND, AHEAD] (mm), from a preset or a run: two lengths, each in AWAKE's range."""
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ConfigError(f"{where} = {value!r}: allowed two lengths BEHIND, AHEAD in mm")
+    return [AWAKE.check(f"{where}.{side}", x) for side, x in zip(("behind", "ahead"), value)]
 
 
 def named_section(what: str, name: str, path, schema: dict, optional: dict | None = None) -> dict:
@@ -334,11 +342,7 @@ def load_preset(name: str, path="configs/presets.toml") -> Preset:
         v["machine"] = PRESET_OPTIONAL["machine"].check(f"{path}: {name}.machine", extra["machine"])
         load_machine(v["machine"])
     if "awake" in extra:
-        a = extra["awake"]
-        if not isinstance(a, list) or len(a) != 2:
-            raise ConfigError(f"{path}: {name}.awake = {a!r}: allowed two lengths [BEHIND, AHEAD] in mm")
-        v["awake"] = tuple(PRESET_OPTIONAL["awake"].check(f"{path}: {name}.awake.{side}", x)
-                           for side, x in zip(("behind", "ahead"), a))
+        v["awake"] = tuple(check_awake(f"{path}: {name}.awake", extra["awake"]))
     return Preset(name, **v)
 
 

@@ -10,8 +10,9 @@ import json
 import math
 
 from analysis.core.bed_spec import BED_DIR, check_graded
-from analysis.core.config import (SEED, SLIP, THREADS, CommandLine, ConfigError, Field, as_dict, load_disk, load_machine, load_preset, load_resolution,
-                             load_sleeve, load_soil, option, parse_overrides, preset_with, soil_with, tool_with)
+from analysis.core.config import (AWAKE, SEED, SLIP, THREADS, CommandLine, ConfigError, Field, as_dict, check_awake,
+                                  load_disk, load_machine, load_preset, load_resolution, load_sleeve, load_soil, option,
+                                  parse_overrides, preset_with, soil_with, tool_with)
 from analysis.core.kinematics import TIP_SPHERE_RATIO, layout
 
 CHECKPOINT_EVERY = 600.0    # s of wall time between checkpoints of an unfinished run (0: none)
@@ -19,7 +20,7 @@ RUN_FIELDS = {"slip": SLIP,
               "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
               "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)"),
               "weight": Field(1.0, 5000.0, unit="N", meaning="load the disk carries (free mode)"),
-              "awake": Field(0.0, 1000.0, unit="mm", meaning="awake soil behind / ahead of the tools' reach"),
+              "awake": AWAKE,
               "density_scale": Field(1.0, 100.0, meaning="density scaling: the grains k times heavier and gravity on "
                                      "them k times weaker (their weight kept), so the time step is √k longer"),
               "depth_stop": Field(1.0, 500.0, unit="mm", meaning="deepest tip depth the limit device lets the disk "
@@ -85,10 +86,7 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
         RUN_FIELDS["weight"].check("run.weight", weight)
     awake = preset.awake if awake is None else awake
     if awake is not None:
-        if len(awake) != 2:
-            raise ConfigError(f"run.awake = {awake!r}: allowed two lengths BEHIND,AHEAD in mm")
-        awake = [RUN_FIELDS["awake"].check(f"run.awake.{side}", float(x))
-                 for side, x in zip(("behind", "ahead"), awake)]
+        awake = check_awake("run.awake", awake)
     if preset.depth <= disk.penetration + 20:
         raise ConfigError(f"preset.depth = {preset.depth:g} is out of range: allowed > penetration + 20 = "
                           f"{disk.penetration + 20:g} mm")
@@ -190,9 +188,11 @@ def awake_arg(text: str) -> list:
 
 
 def plan_args(a: argparse.Namespace) -> dict:
-    return plan(RunSpec(a.soil, a.preset, a.disk, a.seed, a.mode, a.slip, a.speed_kmh, a.holes, a.lead_in, a.width,
-                        a.depth, a.resolution, a.dt_safety, a.lateral, parse_overrides(a.set), parse_overrides(a.tool),
-                        a.disk_inertia, a.weight, a.depth_stop, a.awake, a.density_scale))
+    return plan(RunSpec(soil=a.soil, preset=a.preset, disk_path=a.disk, seed=a.seed, mode=a.mode, slip=a.slip,
+                        speed_kmh=a.speed_kmh, holes=a.holes, lead_in=a.lead_in, width=a.width, depth=a.depth,
+                        resolution=a.resolution, dt_safety=a.dt_safety, lateral=a.lateral,
+                        overrides=parse_overrides(a.set), tool=parse_overrides(a.tool), disk_inertia=a.disk_inertia,
+                        weight=a.weight, depth_stop=a.depth_stop, awake=a.awake, density_scale=a.density_scale))
 
 
 def plan_from_argv(argv: list[str]) -> dict:

@@ -178,6 +178,7 @@ def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: di
     reported, never counted as a prediction)."""
     rows = []
     residuals = residuals or {}
+    targets = set(targets)
     holes = with_l2_surface(holes)
     for soil, h in holes.groupby("soil", sort=False):
         known = [residuals[r] for r in h.run.unique() if r in residuals]
@@ -196,7 +197,7 @@ def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: di
                          **agreement(s["sim_mean"], s["ci_lo"], s["ci_hi"], mean),
                          "theory_table1": theory["table1"].get(fc, math.nan),
                          "theory_envelope": theory["envelope"].get(fc, math.nan), **energy,
-                         "calibration_target": (soil, m) in set(targets)})
+                         "calibration_target": (soil, m) in targets})
         for reading, crit in criteria.items():
             p = pass_probability(h, crit)
             lo, hi, mean = float(fr.pass_percent.min()), float(fr.pass_percent.max()), float(fm.pass_percent)
@@ -210,7 +211,7 @@ def compare(holes: pd.DataFrame, field: pd.DataFrame, theory: dict, criteria: di
                          **agreement(p["pass_pct"], p["pass_lo"], p["pass_hi"], mean), "theory_table1": math.nan,
                          "theory_envelope": math.nan,
                          "passed_holes": p["passed"], **energy,
-                         "calibration_target": (soil, f"pass_{reading}") in set(targets)})
+                         "calibration_target": (soil, f"pass_{reading}") in targets})
     return pd.DataFrame(rows)
 
 
@@ -224,6 +225,7 @@ def position_trend(holes: pd.DataFrame, metrics=VALIDATED) -> pd.DataFrame:
     >>> position_trend(h, ["L2"])[["metric", "n", "trend"]].values.tolist()
     [['L2', 5, False]]
     """
+    from scipy.stats import linregress
     rows = []
     data = with_l2_surface(holes) if {"L2", "h1"} <= set(holes) else holes
     for (run, soil), g in data.groupby(["run", "soil"], sort=False):
@@ -232,11 +234,8 @@ def position_trend(holes: pd.DataFrame, metrics=VALIDATED) -> pd.DataFrame:
             n = len(v)
             if n < 4:
                 continue
-            x, y = v.hole.to_numpy(float), v[m].to_numpy(float)
-            slope, icpt = np.polyfit(x, y, 1)
-            resid = y - (slope * x + icpt)
-            se = math.sqrt(float(resid @ resid) / (n - 2) / float(((x - x.mean()) ** 2).sum()))
-            half = t975(n - 2) * se
+            fit = linregress(v.hole.to_numpy(float), v[m].to_numpy(float))
+            slope, half = float(fit.slope), t975(n - 2) * float(fit.stderr)
             rows.append({"run": run, "soil": soil, "metric": m, "n": n, "slope_per_hole": slope,
                          "slope_lo": slope - half, "slope_hi": slope + half, "trend": bool(abs(slope) > half)})
     return pd.DataFrame(rows, columns=["run", "soil", "metric", "n", "slope_per_hole", "slope_lo", "slope_hi",
