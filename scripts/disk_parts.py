@@ -41,7 +41,7 @@ from pathlib import Path
 
 from analysis.core.config import load_soil
 from analysis.core.io import atomic_write, provenance
-from analysis.core.kinematics import TIP_SPHERE_RATIO, inertial_number, slip_between_holes, wrapped
+from analysis.core.kinematics import TIP_SPHERE_RATIO, formed_hole_x, inertial_number, slip_between_holes, wrapped
 from analysis.core.run_spec import CHECKPOINT_EVERY
 from scripts.parts import (GRAIN_MASK, GUARD_EVERY, GUARD_SPEED, TOOL_SELF, as_tool, band, circle, guard,
                            open_run_folder, punch_surface, save_state, start_scene)
@@ -449,7 +449,8 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
     tool_box = (lay.x_axis0 * MM - reach, (lay.x_axis0 + lay.speed * lay.t_end) * MM + reach, lay.H0 * MM + reach)
     k_density = params.get("density_scale", 1.0)    # density scaling: grains k × heavier, gravity on them ÷ k
     data, grain_ids, steel, z_surface, bed_mass = start_scene(soil, bed_path, meta, threads, 0.2, tool_box,
-                                                              density_scale=k_density)
+                                                              density_scale=k_density, tilled=params.get("tilled"),
+                                                              seed=params["seed"])
     from yade import O, PyRunner, Vector3, utils
     from scripts import soil as part
     n_particles = len(grain_ids)
@@ -555,6 +556,8 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
                "cpu_s": cpu, "threads": threads, "particle_steps_per_s": n_particles * O.iter / wall,
                "travel_mm": motion.v * O.time * 1000, "sim_time_s": O.time, "z_surface_m": z_surface,
                "holes": len(lay.hole_x), "lead_in": lay.lead_in, "hole_x_mm": list(lay.hole_x),
+               "hole_x_formed_mm": formed_hole_x(*zip(*((r[0], r[5], r[7] / MM, r[8]) for r in recorder.state["rows"])),
+                                                 gap=3 * RECORD_DT) if recorder.state["rows"] else [],
                "tip_min_depth_mm": [-1000 * z for z in recorder.state["tip_min"][:len(lay.hole_x)]],
                "sleeve_max_travel_mm": [1000 * s for s in st["s_max"][:len(lay.hole_x)]],
                "slip_out": 1 - motion.v / (st["theta"] / O.time * disk.R * MM) if O.time > 0 else None,
@@ -563,7 +566,7 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
                                                 lay.phi0, lay.pitch, disk.R, len(lay.hole_x)),
                "axis_sink_mm": motion.sink_summary(O.iter),
                "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool.ids), "energy_J": energy,
-               "density_scale": k_density,
+               "density_scale": k_density, "tilled": params.get("tilled"),
                "inertial_number": inertial_number(tip_speed, disk.D * MM, 2 * meta["radius"],
                                                   meta["grain_density"] * k_density, soil.cone_index),
                "awake": window.summary(n_particles, O.iter) if window else None}

@@ -61,15 +61,17 @@ def open_run_folder(out_root: Path | None, params: dict, threads: int) -> Path:
 
 
 def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: float, tool_box=None,
-                density_scale: float = 1.0):
+                density_scale: float = 1.0, tilled: dict | None = None, seed: int = 0):
     """YADE started on `threads` with the bed part of a scene: the settled grains of bed_path (scripts/beds.py)
     in the soil's cohesive material (mask GRAIN_MASK), a steel material for tools and walls, and the
     container's walls `wall_above` m over the bed's top. A laterally periodic bed becomes a strip periodic
     across the travel: a YADE cell periodic in y with the bed's width W, and in x longer than everything the
     tools sweep (`tool_box` = (x_min, x_max, top over the surface) in m), so nothing meets its image along the
     travel; end walls touch the bed's first and last grains. `density_scale` multiplies the grains' density
-    (density scaling: the scene divides gravity by it, so they weigh what they did). Returns (the bed's arrays, grain ids, steel
-    material id, the bed's surface level z (m), the bed's mass (kg))."""
+    (density scaling: the scene divides gravity by it, so they weigh what they did). `tilled` ({"depth_mm",
+    "density"}) loosens the top layer (analysis/core/bed_spec.py tilled_keep, drawn with `seed`); the surface
+    level is the bed's as levelled. Returns (the bed's arrays, grain ids, steel material id, the bed's surface
+    level z (m), the bed's mass (kg))."""
     import numpy as np
     from scripts.yadeboot import boot
     boot(threads)
@@ -78,18 +80,22 @@ def start_scene(soil, bed_path: Path, meta: dict, threads: int, wall_above: floa
     from analysis.holes.metrology import surface_level
     from scripts.beds import bed_resolution
     O.reset()
-    data = np.load(bed_path)
+    data = dict(np.load(bed_path))
     L, W, _ = meta["size_m"]
-    mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"] * density_scale, cohesive=True))
-    steel = O.materials.append(part.steel_material(soil))
-    grain_ids = O.bodies.append([utils.sphere(tuple(p), r, material=mat, mask=GRAIN_MASK)
-                                 for p, r in zip(data["pos"], data["radius"])])
-    bed_mass = sum(O.bodies[i].state.mass for i in grain_ids)
     res, on = bed_resolution(meta), slice(None)
     if res.graded:                          # a graded bed's level is its fine zone's, where the holes are
         y_lo, y_hi = res.fine_band(W)
         on = (data["pos"][:, 1] >= y_lo) & (data["pos"][:, 1] <= y_hi)
     z_surface = surface_level(data["pos"][on], data["radius"][on], 4 * meta["radius"])
+    if tilled:
+        from analysis.core.bed_spec import tilled_keep
+        keep = tilled_keep(data["pos"][:, 2], z_surface, tilled["depth_mm"] * 1e-3, tilled["density"], seed)
+        data = {**data, "pos": data["pos"][keep], "radius": data["radius"][keep]}
+    mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"] * density_scale, cohesive=True))
+    steel = O.materials.append(part.steel_material(soil))
+    grain_ids = O.bodies.append([utils.sphere(tuple(p), r, material=mat, mask=GRAIN_MASK)
+                                 for p, r in zip(data["pos"], data["radius"])])
+    bed_mass = sum(O.bodies[i].state.mass for i in grain_ids)
     if meta.get("lateral", "walls") == "periodic":
         x_min, x_max, top = tool_box
         x_lo, x_hi = float(np.min(data["pos"][:, 0] - data["radius"])), float(np.max(data["pos"][:, 0] + data["radius"]))

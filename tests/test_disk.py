@@ -117,12 +117,22 @@ def test_weight_sets_the_penetration(side_scenes):
                                          (["--lateral", "open"], "lateral"), (["--awake", "60"], "awake"),
                                          (["--awake=-5,100"], "awake"), (["--depth-stop", "75"], "depth_stop"),
                                          (["--mode", "free", "--weight", "100", "--depth-stop", "65"], "depth_stop"),
-                                         (["--mode", "free", "--weight", "100", "--depth-stop", "90"], "depth_stop")])
+                                         (["--mode", "free", "--weight", "100", "--depth-stop", "90"], "depth_stop"),
+                                         (["--tilled", "100"], "tilled"), (["--tilled", "60,1.2"], "tilled.density"),
+                                         (["--tilled", "5,0.85"], "tilled.depth"),
+                                         (["--tilled", "200,0.85"], "tilled.depth")])
 def test_bad_run_input_names_the_field(args, field):
     from analysis.core.run_spec import plan_from_argv
     with pytest.raises(ConfigError) as e:
         plan_from_argv(["--soil", "clay", "--preset", "test", *args])
     assert field in str(e.value) and "allowed" in str(e.value), str(e.value)
+
+
+def test_a_tilled_layer_is_a_new_run_and_an_untilled_one_keeps_its_id():
+    from analysis.core.run_spec import plan
+    plain, tilled = plan("clay", "test"), plan("clay", "test", tilled=[60, 0.85])
+    assert "tilled" not in plain and tilled["tilled"] == {"depth_mm": 60.0, "density": 0.85}
+    assert tilled["id"] != plain["id"] and tilled["bed_size_mm"] == plain["bed_size_mm"]     # the same bed
 
 
 def test_the_scene_refuses_bad_input_before_building_a_bed(tmp_path):

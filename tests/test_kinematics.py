@@ -5,7 +5,9 @@ import numpy as np
 import pytest
 
 from analysis.core.config import ConfigError, load_disk, load_preset, load_sleeve, sleeve_from_dict, as_dict
-from analysis.core.kinematics import TIP_SPHERE_RATIO, layout, punch_outline, slip_between_holes, to_axis_frame
+from analysis.core.kinematics import (TIP_SPHERE_RATIO, formed_hole_x, layout, punch_outline, slip_between_holes,
+                                     to_axis_frame, wrapped)
+from analysis.holes.measure import hole_centres
 from analysis.holes.metrology import deficit_centres
 from analysis.holes.theory import hole_spacing, swept_extent
 
@@ -103,3 +105,37 @@ def test_deficit_centres_find_carved_holes():
         after[inside, 2] -= 0.05 * (1 - np.hypot(pos[inside, 0] - xc, pos[inside, 1] - 0.08) / 0.03)
     x = deficit_centres(after, pos, rad, 0.08, 0.0125, 0.008, [0.15, 0.35], 0.09)
     assert x == pytest.approx([0.15, 0.35], abs=0.004)
+
+
+def rolling_record(lay, slip: float, record_dt: float = 5e-4):
+    """A disk's record (scripts/disk_parts.py Recorder's time, punch, tip x and tip depth, mm) as it rolls at
+    `slip` from the start of the layout `lay` over its whole time, punches recorded near the soil only."""
+    adv = DISK.R * (1 - slip)
+    omega = lay.speed / adv
+    rows = []
+    for t in np.arange(0.0, lay.t_end, record_dt):
+        x_axis = lay.x_axis0 + lay.speed * t
+        for k in range(DISK.N):
+            phi = wrapped(lay.phi0 + k * lay.pitch - omega * t)
+            if abs(phi) < lay.phi_in + 0.2:
+                rows.append((t, k, x_axis + lay.tip_reach * np.sin(phi), lay.H0 - lay.tip_reach * np.cos(phi)))
+    return [np.array(c) for c in zip(*rows)]
+
+
+@pytest.mark.parametrize("slip", [0.0, 0.2])
+def test_holes_are_found_where_the_record_says_the_punches_went_deepest(slip):
+    """A free disk forms its holes where it rolls, not at the layout's x: from the record of a disk planned at
+    slip 0 that rolls at `slip`, the formed holes are the slip-`slip` layout's (within the record's step of
+    travel), every one of the 8 holes of a strip longer than a turn, and free mode's measured centres are them."""
+    planned = layout(DISK, 1.9, 0.0, 8, lead_in=1, run_out=100.0, tip_sphere=5.0)
+    rolled = layout(DISK, 1.9, slip, 8, lead_in=1, run_out=100.0, tip_sphere=5.0)
+    formed = formed_hole_x(*rolling_record(planned, slip), gap=1.5e-3)
+    step = planned.speed * 5e-4
+    assert len(formed) >= 9
+    first = [x - planned.x_axis0 for x in formed[:9]]
+    assert first == pytest.approx([x - rolled.x_axis0 for x in rolled.hole_x], abs=step)
+    summary = {"mode": "free", "hole_x_mm": list(planned.hole_x), "hole_x_formed_mm": formed}
+    assert hole_centres(summary) == formed[:9]
+    assert hole_centres({**summary, "mode": "prescribed"}) == list(planned.hole_x)
+    if slip:
+        assert np.all(np.abs(np.subtract(formed[:9], planned.hole_x))[1:] > 5 * step)

@@ -222,3 +222,29 @@ def test_a_case_that_cannot_be_measured_is_reported_and_the_table_still_updates(
     assert list(read_table(tmp_path / "three.csv").run) == [cases[0].id, cases[2].id]
     err = capsys.readouterr().err
     assert f"FAILED to measure {cases[1].id}" in err and "no hole where the punch entered" in err
+
+
+def test_a_sensitivity_sets_each_case_beside_the_comparisons_holes_of_its_soil(tmp_path):
+    """[study] against = PRESET: a case's mean 3 mm over the comparison's, with a tight scatter, is resolved and
+    its shift reported in field units; a metric the scatter swamps is not; a soil the comparison lacks is left out."""
+    import pandas as pd
+    from analysis.batch.study import effect_table
+    comparison = tmp_path / "comparison.csv"
+    pd.DataFrame([{"preset": "validation_surface", "soil": "clay", "metric": m, "field_mean": 60.0, "sim_mean": 50.0,
+                   "sim_sd": 1.0, "n_holes": 8} for m in ("h1", "L0")]
+                 + [{"preset": "quick", "soil": "loam", "metric": "h1", "field_mean": 15.0, "sim_mean": 1.0,
+                     "sim_sd": 1.0, "n_holes": 2}]).to_csv(comparison, index=False)
+    table = pd.DataFrame([{"run": "a", "soil": "clay", "found": 4, "h1": 53.0, "h1_sd": 0.5, "L0": 53.0, "L0_sd": 20.0},
+                          {"run": "b", "soil": "loam", "found": 4, "h1": 3.0, "h1_sd": 0.5}])
+    effect = effect_table(table, "validation_surface", comparison).set_index("metric")
+    assert list(effect.run) == ["a", "a"]
+    assert effect.loc["h1", "shift"] == pytest.approx(3.0) and effect.loc["h1", "resolved"]
+    assert effect.loc["h1", "shift_pct_of_field"] == pytest.approx(5.0)
+    assert not effect.loc["L0", "resolved"] and effect.loc["L0", "shift_lo"] < 0 < effect.loc["L0", "shift_hi"]
+
+
+def test_a_sensitivity_against_an_unknown_preset_names_it(tmp_path):
+    path = study_file(tmp_path, "s", {"seed": [1]})
+    path.write_text(path.read_text().replace('name = "s"', 'name = "s"\nagainst = "validation"'))
+    with pytest.raises(ConfigError, match="validation"):
+        load_study(path)

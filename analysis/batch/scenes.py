@@ -23,7 +23,7 @@ PLAIN = {"soil": "--soil", "preset": "--preset", "seed": "--seed", "slip": "--sl
          "holes": "--holes", "lead_in": "--lead-in", "width": "--width", "depth": "--depth", "mode": "--mode",
          "resolution": "--resolution", "dt_safety": "--dt-safety", "awake": "--awake",
          "weight": "--weight", "depth_stop": "--depth-stop", "disk_inertia": "--disk-inertia",
-         "density_scale": "--density-scale"}
+         "density_scale": "--density-scale", "tilled": "--tilled"}
 PREFIXED = {"disk": "--tool", "sleeve": "--tool", "soil": "--set"}
 
 

@@ -2,12 +2,14 @@
 each case one disk scene (analysis/batch/scenes.py), one tidy table per study in results/studies/NAME.csv.
 
 A study file:
-    [study]   name, description
+    [study]   name, description; optionally against = PRESET: a sensitivity, each case's holes set beside the
+              field comparison's at that preset for its soil (NAME-effect.csv: the shift and its 95 % interval)
     [base]    fields every case shares (soil = "clay", preset = "quick", seed = 1, ...)
     [grid]    field = [values ...]: every combination            } one of the two, or both
     [[case]]  field = value ...: one case each                    } (grid cases, then the listed ones)
-Fields: soil, preset, seed, slip, speed_kmh, holes, lead_in, width, depth, mode, resolution, dt_safety, awake ([behind, ahead] mm); disk.<field> and
-sleeve.<field> (configs/disk.toml) and soil.<field> (the soil's contact parameters).
+Fields: soil, preset, seed, slip, speed_kmh, holes, lead_in, width, depth, mode, resolution, dt_safety, awake
+([behind, ahead] mm), weight, depth_stop, disk_inertia, density_scale, tilled ([depth mm, density ratio]);
+disk.<field> and sleeve.<field> (configs/disk.toml) and soil.<field> (the soil's contact parameters).
 """
 from __future__ import annotations
 
@@ -20,11 +22,11 @@ import numpy as np
 import pandas as pd
 
 from analysis.batch.scenes import finished, plan_case, run_all, say, scene_args
-from analysis.holes.compare import RESIDUAL_LIMIT, residual_pct
-from analysis.core.config import ROOT, ConfigError, load_criteria, read_toml
+from analysis.holes.compare import RESIDUAL_LIMIT, VALIDATED, residual_pct, shift
+from analysis.core.config import ROOT, ConfigError, load_criteria, load_preset, read_toml
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
-METRICS = ("L0", "L1", "L2", "h1", "C")
+METRICS = ("L0", "L1", "L2", "L2_surface", "h1", "C")
 
 
 @dataclass(frozen=True)
@@ -49,6 +51,8 @@ def load_study(path) -> tuple[dict, list[Case]]:
     head = data.get("study", {})
     if "name" not in head:
         raise ConfigError(f"{path}: [study] needs a name")
+    if "against" in head:
+        load_preset(head["against"])        # a preset's name, or an error naming the allowed ones
     base = data.get("base", {})
     grid = data.get("grid", {})
     for k, v in grid.items():
@@ -112,9 +116,36 @@ def write_table(name: str, head: dict, cases: list[Case], rows: dict, runs_dir: 
     table = pd.DataFrame(measured)
     note = stamp(command)
     atomic_csv(table.round(4), out / f"{name}.csv", note)
+    comparison = ROOT / "results/comparison.csv"
+    if head.get("against") and comparison.exists():
+        effect = effect_table(table, head["against"], comparison)
+        if len(effect):
+            atomic_csv(effect.round(3), out / f"{name}-effect.csv", note + f"; against {head['against']}'s holes in "
+                       "results/comparison.csv")
     plot(table, head, out / f"{name}.png", note)
     say(f"study {name}: table updated, {len(table)}/{len(cases)} cases")
     return table
+
+
+def effect_table(table: pd.DataFrame, against: str, comparison: Path) -> pd.DataFrame:
+    """A sensitivity's effect (`[study] against = PRESET`): each case's hole means beside those of the field
+    comparison's runs at that preset for the case's soil (results/comparison.csv), the shift with its 95 %
+    interval (compare.shift), and the shift in % of the field mean. Cases whose soil the comparison lacks are
+    left out."""
+    base = read_table(comparison)
+    base = base[base.preset == against]
+    rows = []
+    for r in table.to_dict("records"):
+        for m in VALIDATED:
+            b = base[(base.soil == r.get("soil")) & (base.metric == m)]
+            if b.empty or not np.isfinite(r.get(m, np.nan)):
+                continue
+            b = b.iloc[0]
+            d = shift(r[m], r.get(f"{m}_sd", np.nan), r["found"], b.sim_mean, b.sim_sd, int(b.n_holes))
+            rows.append({"run": r["run"], "soil": r["soil"], "metric": m, "mean": r[m], "holes": r["found"],
+                         f"{against}_mean": b.sim_mean, f"{against}_holes": int(b.n_holes), "field_mean": b.field_mean,
+                         **d, "shift_pct_of_field": 100 * d["shift"] / b.field_mean})
+    return pd.DataFrame(rows)
 
 
 def committed_rows(table_path: Path, cases: list[Case]) -> dict:
@@ -176,14 +207,15 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     import matplotlib.pyplot as plt
     x, group, table = plot_axes(table)
     theory = theory_lines(x, table[x]) if x in table else {}
-    fig, axes = plt.subplots(2, 3, figsize=(13, 7))
+    fig, axes = plt.subplots(2, 4, figsize=(16, 7))
+    axes.flat[-1].set_visible(False)
     for ax, m in zip(axes.flat, (*METRICS, "pass_rate")):
         for (label, line), style in zip(theory.items(), ("k--", "k:")):
             if m in line and np.isfinite(line[m]).any():
                 ax.plot(line["x"], line[m], style, marker=".", label=label)
         for label, part in (table.groupby(group) if group else [(None, table)]):
             part = part.sort_values(x)
-            if part[m].isna().all():                   # e.g. C in a one-hole study: nothing to draw
+            if m not in part or part[m].isna().all():  # C in a one-hole study, a table from before: nothing to draw
                 continue
             err = part.get(f"{m}_sd")                  # SD over a case's holes; none with one hole
             ax.errorbar(part[x], part[m], yerr=None if err is None else err.fillna(0.0), marker="o", capsize=3,

@@ -76,3 +76,22 @@ def check_size(size) -> tuple:
     if len(size) != 3:
         raise ConfigError(f"size = {size!r}: give length,width,depth in mm")
     return tuple(SIZE_FIELDS[k].check(f"bed.{k}", v) for k, v in zip(SIZE_FIELDS, size))
+
+
+def tilled_keep(z, z_surface: float, depth: float, density: float, seed: int):
+    """Which grains a loosened top layer keeps (a boolean mask): of the grains whose centres lie within `depth`
+    of the surface (all in one unit), a random share 1 - `density` is taken out, the same ones for the same
+    seed, so the layer's bulk density is `density` times the bed's; those below are all kept. The rotary tiller
+    works the soil just before the disk (seed 001 §1.2); the remaining grains keep the soil's calibrated bonds.
+
+    >>> keep = tilled_keep([0.0, -5, -10, -15, -200], 0.0, 100.0, 0.5, 1)
+    >>> int(keep[:4].sum()), bool(keep[4])
+    (2, True)
+    """
+    import numpy as np
+    z = np.asarray(z, float)
+    layer = np.flatnonzero(z > z_surface - depth)
+    out = np.random.default_rng(seed).choice(layer, size=int(round((1 - density) * layer.size)), replace=False)
+    keep = np.ones(z.size, bool)
+    keep[out] = False
+    return keep

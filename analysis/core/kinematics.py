@@ -168,3 +168,27 @@ def wrapped(phi: float) -> float:
     ([0.5, 0.5, -2.783, 2.783], True)
     """
     return float(phi) if -np.pi <= phi < np.pi else float((phi + np.pi) % (2 * np.pi) - np.pi)
+
+
+def formed_hole_x(t, punch, tip_x, tip_z, gap: float) -> list:
+    """Where a run's punches actually made their holes, from its record (scripts/disk_parts.py Recorder: time,
+    punch, tip x and tip depth below the surface, tip_z < 0 in the soil): one x per passage into the soil, where
+    the tip was deepest, in the order the passages happened. A passage is one punch's rows without a pause
+    longer than `gap` (its time in the window); only passages whose deepest point lies inside them (not at the
+    first or last row: a punch already leaving, or still entering, when the record starts or ends) and below
+    the surface count. Free rolling forms its holes where the soil lets it, not at the prescribed layout's x.
+
+    >>> t = np.r_[0:5] * 1.0; z = np.array([-1.0, -3, -4, -2, 1])
+    >>> formed_hole_x(np.r_[t, t + 10], np.r_[[0] * 5, [1] * 5], np.r_[t * 10, t * 10 + 200], np.r_[z, z], 2.0)
+    [20.0, 220.0]
+    """
+    t, punch, tip_x, tip_z = (np.asarray(a, float) for a in (t, punch, tip_x, tip_z))
+    found = []                                  # (time of the deepest point, its x)
+    for k in np.unique(punch):
+        rows = np.flatnonzero(punch == k)
+        rows = rows[np.argsort(t[rows], kind="stable")]
+        for passage in np.split(rows, np.flatnonzero(np.diff(t[rows]) > gap) + 1):
+            deepest = int(np.argmin(tip_z[passage]))
+            if 0 < deepest < len(passage) - 1 and tip_z[passage[deepest]] < 0:
+                found.append((t[passage[deepest]], tip_x[passage[deepest]]))
+    return [float(x) for _, x in sorted(found)]

@@ -24,7 +24,11 @@ RUN_FIELDS = {"slip": SLIP,
               "density_scale": Field(1.0, 100.0, meaning="density scaling: the grains k times heavier and gravity on "
                                      "them k times weaker (their weight kept), so the time step is √k longer"),
               "depth_stop": Field(1.0, 500.0, unit="mm", meaning="deepest tip depth the limit device lets the disk "
-                                  "sink to (free mode with a weight)")}
+                                  "sink to (free mode with a weight)"),
+              "tilled_depth": Field(10.0, 500.0, unit="mm", meaning="depth of the top layer the rotary tiller "
+                                    "loosened (seed 001 §1.2)"),
+              "tilled_density": Field(0.5, 0.99, meaning="the loosened layer's bulk density over the bed's: the "
+                                      "share of its grains kept")}
 MODES = ("prescribed", "free")
 
 
@@ -58,6 +62,7 @@ class RunSpec:
     depth_stop: float | None = None
     awake: tuple | list | None = None
     density_scale: float | None = None
+    tilled: tuple | list | None = None      # [depth mm, density ratio]: the tiller's loosened top layer
 
 
 def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
@@ -117,6 +122,15 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
         # punches on a second turn: until 2026-11-26 their sleeves were held rigid there (the punch's angle was not
         # wrapped), so such a strip's runs from before are not these
         params["punch_turns"] = math.ceil(len(lay.hole_x) / disk.N)
+    if spec.tilled is not None:             # likewise
+        if not isinstance(spec.tilled, (list, tuple)) or len(spec.tilled) != 2:
+            raise ConfigError(f"run.tilled = {spec.tilled!r}: allowed two numbers DEPTH,DENSITY (mm, ratio)")
+        depth_mm = RUN_FIELDS["tilled_depth"].check("run.tilled.depth", spec.tilled[0])
+        if depth_mm > preset.depth - 20:
+            raise ConfigError(f"run.tilled.depth = {depth_mm:g} is out of range: allowed [10, {preset.depth - 20:g}] "
+                              "mm (20 mm above the strip's floor)")
+        params["tilled"] = {"depth_mm": depth_mm,
+                            "density": RUN_FIELDS["tilled_density"].check("run.tilled.density", spec.tilled[1])}
     if depth_stop is not None:              # likewise
         if weight is None:
             raise ConfigError(f"run.depth_stop = {depth_stop:g} mm needs a weight (free mode): allowed only where "
@@ -163,6 +177,9 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--awake", type=awake_arg, metavar="BEHIND,AHEAD",
                    help="mm: only the soil from BEHIND behind the tools' reach to AHEAD ahead of it moves; the rest "
                    "sleeps (default: all of it moves)")
+    p.add_argument("--tilled", type=pair_arg("DEPTH,DENSITY", "100,0.85"), metavar="DEPTH,DENSITY",
+                   help="the rotary tiller's loosened top layer (seed 001 §1.2): its depth in mm and its bulk density "
+                   "over the bed's, made by taking that share of the layer's grains out at random (default: none)")
     p.add_argument("--seed", type=int, default=1, help="the bed's packing seed, >= 0 (default 1)")
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
     p.add_argument("--vtk", action="store_true", help="also write VTK files for ParaView")
@@ -178,13 +195,18 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     return p
 
 
-def awake_arg(text: str) -> list:
-    """`--awake BEHIND,AHEAD` (mm)."""
-    try:
-        behind, ahead = (float(x) for x in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: allowed two lengths BEHIND,AHEAD in mm, e.g. 60,120") from None
-    return [behind, ahead]
+def pair_arg(names: str, example: str):
+    """An option's reader of two numbers `A,B` (`--awake BEHIND,AHEAD`, `--tilled DEPTH,DENSITY`)."""
+    def read(text: str) -> list:
+        try:
+            a, b = (float(x) for x in text.split(","))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r}: allowed two numbers {names}, e.g. {example}") from None
+        return [a, b]
+    return read
+
+
+awake_arg = pair_arg("BEHIND,AHEAD in mm", "60,120")
 
 
 def plan_args(a: argparse.Namespace) -> dict:
@@ -192,7 +214,8 @@ def plan_args(a: argparse.Namespace) -> dict:
                         speed_kmh=a.speed_kmh, holes=a.holes, lead_in=a.lead_in, width=a.width, depth=a.depth,
                         resolution=a.resolution, dt_safety=a.dt_safety, lateral=a.lateral,
                         overrides=parse_overrides(a.set), tool=parse_overrides(a.tool), disk_inertia=a.disk_inertia,
-                        weight=a.weight, depth_stop=a.depth_stop, awake=a.awake, density_scale=a.density_scale))
+                        weight=a.weight, depth_stop=a.depth_stop, awake=a.awake, density_scale=a.density_scale,
+                        tilled=a.tilled))
 
 
 def plan_from_argv(argv: list[str]) -> dict:

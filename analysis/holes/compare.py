@@ -37,6 +37,23 @@ def t975(dof: int) -> float:
     return float(t.ppf(0.975, dof)) if dof >= 1 else math.nan
 
 
+def shift(mean: float, sd: float, n: int, base_mean: float, base_sd: float, base_n: int) -> dict:
+    """A variant's mean against a baseline's, from each one's holes (mean, SD, count): the shift and its 95 %
+    interval (Welch: the two spreads not assumed equal), and whether the interval excludes 0 (resolved).
+
+    >>> r = shift(12.0, 1.0, 2, 10.0, 1.0, 8)
+    >>> round(r["shift"], 2), round(r["shift_lo"], 2), round(r["shift_hi"], 2), r["resolved"]
+    (2.0, -2.55, 6.55, False)
+    """
+    v, v0 = sd ** 2 / n, base_sd ** 2 / base_n
+    se = math.sqrt(v + v0)
+    dof = (v + v0) ** 2 / (v ** 2 / (n - 1) + v0 ** 2 / (base_n - 1)) if n > 1 and base_n > 1 and se > 0 else 0
+    half = t975(dof) * se if dof >= 1 else math.nan
+    d = mean - base_mean
+    return {"shift": d, "shift_lo": d - half, "shift_hi": d + half,
+            "resolved": bool(math.isfinite(half) and abs(d) > half)}
+
+
 def field_table(path=ROOT / "configs/field/table3.csv") -> pd.DataFrame:
     return read_table(path)
 

@@ -12,6 +12,7 @@ import pandas as pd
 
 from analysis.core.config import Resolution, load_seedling
 from analysis.core.io import atomic_csv, stamp
+from analysis.core.kinematics import formed_hole_x
 from analysis.holes.metrology import DEPTHS, measure_state
 
 COLUMNS = ["run", "soil", "seed", "hole", "found", "x", "C", "h1", "L0", "L1", "L2", "L2_surface", "bottom", "grain_radius",
@@ -25,6 +26,12 @@ def load_run(folder: Path):
     cfg = json.loads((folder / "config.json").read_text())
     summary = json.loads((folder / "summary.json").read_text())
     state = np.load(folder / "state.npz")
+    record = folder / "timeseries.csv"
+    if summary.get("mode") == "free" and "hole_x_formed_mm" not in summary and record.exists():
+        # a free run from before its summary kept where the holes formed: from its record, as the scene does
+        ts = pd.read_csv(record)
+        summary["hole_x_formed_mm"] = formed_hole_x(ts.t_s, ts.punch, ts.tip_x_m * 1000, ts.tip_z_m,
+                                                    gap=3 * np.median(np.diff(np.unique(ts.t_s))))
     return cfg, summary, state
 
 
@@ -36,6 +43,19 @@ def hole_tool(cfg: dict) -> tuple[float, float]:
     return cfg["disk"]["D"], cfg["sleeve"]["outer_diameter"]
 
 
+def hole_centres(summary: dict) -> list:
+    """Every hole's x (mm), lead-in holes first: the prescribed layout's, except in free mode, where the disk
+    rolls as the soil lets it and the k-th hole is where the k-th punch passage into the soil was deepest
+    (summary `hole_x_formed_mm`, from the run's record; a hole the record lacks keeps the layout's x).
+
+    >>> hole_centres({"mode": "free", "hole_x_mm": [100, 300, 500], "hole_x_formed_mm": [110.0, 322.0]})
+    [110.0, 322.0, 500]
+    """
+    planned = list(summary["hole_x_mm"])
+    formed = summary.get("hole_x_formed_mm") if summary.get("mode") == "free" else None
+    return planned if formed is None else [*formed[:len(planned)], *planned[len(formed):]]
+
+
 def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
     """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2,
     the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...);
@@ -45,7 +65,7 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     cfg, summary, state = loaded = load_run(folder)
     seedling = load_seedling(seedling_path)
     pos, rad, pos0 = state["pos"] * 1000, state["radius"] * 1000, state["initial_pos"] * 1000
-    measured_x = summary["hole_x_mm"][summary.get("lead_in", 0):]        # lead-in holes are not measured
+    measured_x = hole_centres(summary)[summary.get("lead_in", 0):]        # lead-in holes are not measured
     width = cfg["bed_size_mm"][1]
     graded = Resolution("graded", **cfg["graded"]) if cfg.get("graded") else None     # scripts/disk.py's plan
     band = tuple(1000 * y for y in graded.fine_band(width / 1000)) if graded else None

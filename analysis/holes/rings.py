@@ -21,7 +21,7 @@ import pandas as pd
 
 from analysis.core.io import atomic_csv, stamp
 from analysis.core.config import load_seedling
-from analysis.holes.measure import hole_tool, measure_run
+from analysis.holes.measure import hole_centres, hole_tool, measure_run
 from analysis.holes.metrology import h1_band, measure_hole, side_profile
 
 CUTS = (0.0, 0.5, 1.0, 1.5, 2.0)      # the opening's cut below −h1, in probe radii (1: the rule)
@@ -46,7 +46,7 @@ def profiles(measured) -> pd.DataFrame:
     D, outer = cfg["disk"]["D"], cfg["sleeve"]["outer_diameter"]
     band_lo, band_hi = h1_band(D, outer)
     half_width = cfg["bed_size_mm"][1] / 2
-    entries = summary["hole_x_mm"][summary.get("lead_in", 0):]
+    entries = hole_centres(summary)[summary.get("lead_in", 0):]
     rows = []
     for row, xc, plate in zip(table.itertuples(), entries, plate_depths(cfg, summary, z_surface)):
         r, depth = side_profile(S, xs, ys, z_surface, xc, half_width, D, min(outer + 10, half_width))
@@ -64,7 +64,7 @@ def cut_levels(measured, seedling_path="configs/seedling.toml") -> pd.DataFrame:
     D, outer = hole_tool(cfg)
     seedling = load_seedling(seedling_path)
     rows = []
-    for row, xc in zip(table.itertuples(), summary["hole_x_mm"][summary.get("lead_in", 0):]):
+    for row, xc in zip(table.itertuples(), hole_centres(summary)[summary.get("lead_in", 0):]):
         for k in CUTS:
             h = measure_hole(S, xs, ys, z_surface, xc, cfg["bed_size_mm"][1] / 2, D, outer, row.probe,
                              seedling.l2_diameter, cut=k * row.probe)
