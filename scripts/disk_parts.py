@@ -58,6 +58,7 @@ AVOID_SELF = TOOL_SELF | 0b1000    # the collider's avoidSelfInteractionMask: to
 WINDOW_STEP = 5.0           # mm of the axis's travel between moves of the awake window
 RESTLESS = 0.02             # × the tip speed: a grain behind the window sleeps only when slower than this
 MM = 1e-3
+HOOK = "disk_hook"          # the per-step hook's name in YADE's global namespace (never an engine's label)
 
 
 def punch_mesh(disk, sleeve, a: float):
@@ -460,15 +461,31 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
     motion = Motion(params, disk, sleeve, lay, tool, axis0, -part.GRAVITY[2], floor_room)
     recorder = Recorder(motion, z_surface)
 
+    failed = []
+
     def hook():
-        """Per step: the motion's integration, then a record when one is due."""
-        recorder(*motion.step())
+        """Per step: the motion's integration, then a record when one is due. A failure pauses YADE and is
+        raised by the loop (YADE's PyRunner would print it at every step and go on without the motion)."""
+        if failed:
+            return
+        try:
+            recorder(*motion.step())
+        except Exception as e:              # noqa: BLE001 - raised again, with its step, by hook_failed()
+            failed.append(e)
+            O.pause()
+
+    def hook_failed():
+        if failed:
+            raise RuntimeError(f"the disk's per-step hook failed at step {O.iter}: {failed[0]!r}") from failed[0]
 
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[
-        PyRunner(command="hook()", iterPeriod=1, label="hook"), *motion.engines], avoid_self_mask=AVOID_SELF,
+        PyRunner(command=HOOK + "()", iterPeriod=1, label="hook"), *motion.engines], avoid_self_mask=AVOID_SELF,
         gravity=tuple(x / k_density for x in part.GRAVITY))
     import builtins
-    builtins.hook = hook                    # PyRunner evaluates its command in YADE's global namespace
+    # PyRunner evaluates its command in YADE's global namespace, where YADE also puts every engine by its label
+    # (again when a saved scene is loaded): the command names no label, or a resumed run's PyRunner would call
+    # itself
+    setattr(builtins, HOOK, hook)
     O.dt = preset["dt_safety"] * utils.PWaveTimeStep()
     n_steps = int(lay.t_end / O.dt) + 1
     log(f"run {params['id']}: {n_particles} grains, bed {meta['key']}, {n_steps} steps of {O.dt:.2e} s, "
@@ -479,6 +496,7 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
     resumed = (out / CHECKPOINT).exists()
     if resumed:                             # go on from where an earlier process of this run stopped
         ck = load_checkpoint(out)
+        next(e for e in O.engines if e.label == "hook").command = HOOK + "()"     # a scene saved before HOOK
         O.trackEnergy = True
         motion.rebind(O.engines)
         law = part.contact_law(O)
@@ -498,6 +516,7 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
 
     if not resumed:
         O.run(1, True)                      # the bed's contacts exist from here on: the balance starts here
+        hook_failed()
         energy0 = energy_now(law, motion, window)
         vmax = 0.0
         if window:
@@ -514,6 +533,7 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
             window.move()
         chunk = min(GUARD_EVERY, n_end - O.iter)
         O.run(chunk, True)
+        hook_failed()
         if window:
             window.state["awake_steps"] += window.n_awake * chunk
         vmax = max(vmax, guard(grain_ids, meta, z_surface, GUARD_SPEED * tip_speed, 0.5 * bed_mass * tip_speed ** 2))
