@@ -25,9 +25,9 @@ RUN_FIELDS = {"slip": SLIP,
                                      "them k times weaker (their weight kept), so the time step is √k longer"),
               "depth_stop": Field(1.0, 500.0, unit="mm", meaning="deepest tip depth the limit device lets the disk "
                                   "sink to (free mode with a weight)"),
-              "tilled_depth": Field(10.0, 500.0, unit="mm", meaning="depth of the top layer the rotary tiller "
+              "tilled.depth": Field(10.0, 500.0, unit="mm", meaning="depth of the top layer the rotary tiller "
                                     "loosened (seed 001 §1.2)"),
-              "tilled_density": Field(0.5, 0.99, meaning="the loosened layer's bulk density over the bed's: the "
+              "tilled.density": Field(0.5, 0.99, meaning="the loosened layer's bulk density over the bed's: the "
                                       "share of its grains kept")}
 MODES = ("prescribed", "free")
 
@@ -125,12 +125,12 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
     if spec.tilled is not None:             # likewise
         if not isinstance(spec.tilled, (list, tuple)) or len(spec.tilled) != 2:
             raise ConfigError(f"run.tilled = {spec.tilled!r}: allowed two numbers DEPTH,DENSITY (mm, ratio)")
-        depth_mm = RUN_FIELDS["tilled_depth"].check("run.tilled.depth", spec.tilled[0])
+        depth_mm = RUN_FIELDS["tilled.depth"].check("run.tilled.depth", spec.tilled[0])
         if depth_mm > preset.depth - 20:
             raise ConfigError(f"run.tilled.depth = {depth_mm:g} is out of range: allowed [10, {preset.depth - 20:g}] "
                               "mm (20 mm above the strip's floor)")
         params["tilled"] = {"depth_mm": depth_mm,
-                            "density": RUN_FIELDS["tilled_density"].check("run.tilled.density", spec.tilled[1])}
+                            "density": RUN_FIELDS["tilled.density"].check("run.tilled.density", spec.tilled[1])}
     if depth_stop is not None:              # likewise
         if weight is None:
             raise ConfigError(f"run.depth_stop = {depth_stop:g} mm needs a weight (free mode): allowed only where "
@@ -165,8 +165,10 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--resolution", help="particle size (configs/resolutions.toml), overrides the preset")
     p.add_argument("--dt-safety", type=float, help="time step / critical time step, overrides the preset")
     p.add_argument("--lateral", help="the strip's sides, walls | periodic, overrides the preset")
-    p.add_argument("--mode", default="prescribed", help="prescribed | free")
-    p.add_argument("--disk-inertia", type=float, default=0.05, help="kg·m², free mode")
+    p.add_argument("--mode", default="prescribed", help="prescribed | free: the disk turned at the set slip, or "
+                   "by the soil's torque (default prescribed)")
+    p.add_argument("--disk-inertia", type=float, default=0.05, help="kg·m², free mode: the disk's moment of inertia "
+                   "(default 0.05)")
     p.add_argument("--weight", type=float, help="N, free mode: the axis sinks under this load (default: held)")
     p.add_argument("--density-scale", type=float, metavar="K",
                    help="density scaling: grains K times heavier, gravity on them K times weaker, so the time step is "
