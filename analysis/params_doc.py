@@ -55,10 +55,11 @@ def run_fields() -> list[str]:
     rows = ["| key | `./holes run` option | in a study | allowed | unit | meaning |", "|---|---|---|---|---|---|"]
     for key, f in schema.items():
         # a key "OPTION.PART" is one part of a composite option (tilled.depth of --tilled DEPTH,DENSITY)
-        option = next((o for o in (PLAIN.get(key), options.get(key), PLAIN.get(key.partition(".")[0])) if o), None)
+        whole = key.partition(".")[0]
+        option = next((o for o in (PLAIN.get(key), options.get(key), PLAIN.get(whole)) if o), None)
         if option is None:
             continue
-        cells = [f"`{key}`", f"`{option}`", "yes" if key in PLAIN or key.partition(".")[0] in PLAIN else "no", allowed(f), f.unit, f.meaning]
+        cells = [f"`{key}`", f"`{option}`", "yes" if whole in PLAIN else "no", allowed(f), f.unit, f.meaning]
         rows.append("| " + " | ".join(map(cell, cells)) + " |")
     return rows
 
