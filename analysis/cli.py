@@ -186,6 +186,13 @@ def cmd_bench(args) -> int:
             print("bench collider: give --run results/runs/<id>, a run with a checkpoint", file=sys.stderr)
             return 2
         return run_scene("collider_bench.py", [args.run, "--steps", str(args.steps), "--threads", str(args.threads or 2)])
+    if args.what == "presets":
+        from analysis.batch import bench
+        try:
+            return bench.run_presets(args.against, args.out)
+        except ValueError as e:
+            print(e, file=sys.stderr)
+            return 2
     if args.what in ("speed-vs-error", "economies"):
         from analysis.batch import bench
         go = bench.run if args.what == "speed-vs-error" else bench.run_economies
@@ -237,7 +244,7 @@ def with_earlier(here, out: Path, key: str):
 
 
 SHARE_HELP = ("(default: shared out by the cases: side by side on one thread each when they fill the cores evenly or "
-              "their far field sleeps, else one at a time on every core; analysis/batch/scenes.py share_cores)")
+              "their far field sleeps (then as many at a time as finish soonest, up to two per core), else one at a time on every core; analysis/batch/scenes.py share_cores)")
 
 
 def scene_batch_options(p, out_help: str):
@@ -358,10 +365,14 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs; "
                        "`bench speed-vs-error` runs one clay hole at several resolutions and `bench economies` "
                        "what each scene economy costs in error (analysis/batch/bench.py); "
+                       "`bench presets`: each preset's holes against a reference preset's, with its cost per measured hole; "
                        "`bench peer`: one bed and punch in LIGGGHTS and in YADE (scripts/peer.py); "
                        "`bench collider --run R`: contact detection settings on run R's strip from its checkpoint "
                        "(scripts/collider_bench.py)")
-    p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "economies", "peer", "collider"])
+    p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "economies", "presets", "peer", "collider"])
+    p.add_argument("--against", default="validation_surface",
+                   help="presets: the reference preset (default validation_surface); every preset in "
+                   "results/comparison.csv with its calibrated machine is set against it")
     p.add_argument("--run", help="collider: a run folder with a checkpoint")
     p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000, help="collider: steps per setting (default 3000)")
     scene_batch_options(p, "speed-vs-error, economies: table folder (default results/bench)")

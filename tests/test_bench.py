@@ -70,3 +70,10 @@ def test_packings_of_a_setting_are_pooled_and_its_error_set_against_their_scatte
     sd_b, sd_c = pd.Series([115.0, 100.0]).std(), pd.Series([110.0, 120.0]).std()
     assert s.loc["b b2", "dL0_se"] == pytest.approx((sd_b ** 2 / 2 + sd_c ** 2 / 2) ** 0.5)
     assert pd.isna(s.loc["a", "dL0_se"])                                        # one packing: no scatter
+
+
+def test_bench_presets_refuses_a_reference_it_has_no_holes_of(capsys):
+    from analysis import cli
+    code = cli.main(["bench", "presets", "--against", "nonesuch"])
+    err = capsys.readouterr().err
+    assert code == 2 and "--against = 'nonesuch'" in err and "allowed" in err and "Traceback" not in err, err

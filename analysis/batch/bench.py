@@ -273,3 +273,138 @@ def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_ru
         print(st[["resolution", *SETTING, "packings", "particles", "wall_s", *METRICS, *(f"d{m}" for m in METRICS),
                   *(f"d{m}_se" for m in METRICS), "err_finest_pct"]].round(1).to_string(index=False))
     return max(codes)
+
+
+# The presets against a reference preset (`./holes bench presets`): the same machine and strip at other grains.
+# Fixed before any candidate's holes were seen (2026-11-26): per soil and metric of compare.VALIDATED, the shift of
+# the candidate's mean from the reference's (Welch, 95 %), in % of the field mean. A preset is fit for the main
+# job when no shift is both resolved (interval excluding 0) and larger than 10 % of the field mean (the
+# validation's own tolerance); the goal of 3 % is counted apart (shifts whose size is within it).
+FIT_PCT, GOAL_PCT = 10.0, 3.0
+
+
+def preset_errors(comparison: pd.DataFrame, reference: str, presets: list[str]) -> pd.DataFrame:
+    """One row per candidate preset, soil and metric: both means and hole counts, the shift and its interval,
+    `error_pct` = |shift| / field mean, `resolved`, `within_goal` (≤ GOAL_PCT) and `against_fit` (resolved and
+    over FIT_PCT). `comparison` is results/comparison.csv (one row per preset, soil and metric).
+
+    >>> rows = [{"preset": p, "soil": "clay", "metric": "L2", "field_mean": 50.0, "sim_mean": m, "sim_sd": 2.0,
+    ...          "n_holes": 8} for p, m in (("ref", 50.0), ("a", 51.0), ("b", 60.0))]
+    >>> e = preset_errors(pd.DataFrame(rows), "ref", ["a", "b"]).set_index("preset")
+    >>> e.error_pct.tolist(), e.resolved.tolist(), e.within_goal.tolist(), e.against_fit.tolist()
+    ([2.0, 20.0], [False, True], [True, False], [False, True])
+    """
+    from analysis.holes.compare import VALIDATED, shift
+    ref = comparison[comparison.preset == reference].set_index(["soil", "metric"])
+    if ref.empty:
+        raise ValueError(f"bench presets: --against = {reference!r}: no rows of that preset in results/comparison.csv")
+    rows = []
+    for preset in presets:
+        for r in comparison[(comparison.preset == preset) & comparison.metric.isin(VALIDATED)].itertuples():
+            if (r.soil, r.metric) not in ref.index or not np.isfinite(r.sim_mean):
+                continue
+            b = ref.loc[(r.soil, r.metric)]
+            d = shift(r.sim_mean, r.sim_sd, int(r.n_holes), b.sim_mean, b.sim_sd, int(b.n_holes))
+            err = 100 * abs(d["shift"]) / r.field_mean
+            rows.append({"preset": preset, "soil": r.soil, "metric": r.metric, "field_mean": r.field_mean,
+                         "mean": r.sim_mean, "holes": int(r.n_holes), "reference": reference,
+                         "reference_mean": b.sim_mean, "reference_holes": int(b.n_holes), **d,
+                         "error_pct": err, "within_goal": err <= GOAL_PCT,
+                         "against_fit": bool(d["resolved"] and err > FIT_PCT)})
+    return pd.DataFrame(rows)
+
+
+def preset_summary(errors: pd.DataFrame, costs: pd.DataFrame) -> pd.DataFrame:
+    """Per preset: the mean and largest error, the soil-metric shifts within the goal, those against its fitness,
+    and its cost per measured hole (CPU and wall, from its runs' `run_cost` rows: mean over runs).
+
+    >>> e = pd.DataFrame({"preset": ["a", "a"], "error_pct": [1.0, 12.0], "within_goal": [True, False],
+    ...                   "against_fit": [False, True]})
+    >>> c = pd.DataFrame({"preset": ["a"], "particles": [100], "cpu_s_per_measured_hole": [50.0],
+    ...                   "wall_s_per_measured_hole": [52.0], "threads": [1], "measured_holes": [8]})
+    >>> s = preset_summary(e, c).iloc[0]
+    >>> s.mean_error_pct, s.max_error_pct, s.within_goal, s.against_fit, s.fit, s.cpu_s_per_measured_hole
+    (6.5, 12.0, '1/2', 1, False, 50.0)
+    """
+    rows = []
+    for preset, g in errors.groupby("preset", sort=False):
+        c = costs[costs.preset == preset]
+        rows.append({"preset": preset, "mean_error_pct": round(g.error_pct.mean(), 1),
+                     "max_error_pct": round(g.error_pct.max(), 1),
+                     "within_goal": f"{int(g.within_goal.sum())}/{len(g)}", "against_fit": int(g.against_fit.sum()),
+                     "fit": not g.against_fit.any(), "runs": len(c),
+                     "particles": int(c.particles.mean()) if len(c) else np.nan,
+                     "measured_holes": int(c.measured_holes.sum()) if len(c) else np.nan,
+                     "threads": "/".join(map(str, sorted(set(c.threads)))) if len(c) else "",
+                     "cpu_s_per_measured_hole": round(c.cpu_s_per_measured_hole.mean(), 1) if len(c) else np.nan,
+                     "wall_s_per_measured_hole": round(c.wall_s_per_measured_hole.mean(), 1) if len(c) else np.nan})
+    return pd.DataFrame(rows)
+
+
+def run_presets(reference: str = "validation_surface", out=None, comparison_dir=None) -> int:
+    """`./holes bench presets`: every preset in results/comparison.csv that runs the reference's calibrated machine
+    set against the reference (preset_errors), with its cost per measured hole from its kept runs' summaries
+    (results/comparison/runs/): results/bench/presets.csv (per soil and metric), presets_summary.csv and .png."""
+    import json
+    from analysis.holes.compare import VALIDATED
+    results = Path(comparison_dir or ROOT / "results")
+    out = Path(out or ROOT / "results/bench")
+    comparison = read_table(results / "comparison.csv")
+    machine_of = {p: load_preset(p).machine for p in comparison.preset.unique()}
+    if reference not in machine_of:
+        raise ValueError(f"bench presets: --against = {reference!r}: allowed a preset in results/comparison.csv "
+                         f"({', '.join(sorted(machine_of))})")
+    presets = [p for p, m in machine_of.items() if p != reference and m == machine_of[reference]]
+    if not presets:
+        raise ValueError(f"bench presets: no preset in results/comparison.csv runs {reference!r}'s machine "
+                         f"({machine_of[reference] or 'the disk config'}); run one with ./holes compare --preset NAME")
+    costs = []
+    for preset in [reference, *presets]:
+        runs = read_table(results / "comparison" / f"{preset}-holes.csv").run.unique()
+        for run in runs:
+            summary = results / "comparison" / "runs" / run / "summary.json"
+            if summary.exists():
+                costs.append(run_cost(json.loads(summary.read_text())))
+    costs = pd.DataFrame(costs)
+    errors = preset_errors(comparison, reference, presets)
+    summary = preset_summary(errors, costs)
+    ref_cost = preset_summary(pd.DataFrame([{"preset": reference, "error_pct": 0.0, "within_goal": True,
+                                             "against_fit": False}]), costs)
+    summary = pd.concat([ref_cost.assign(mean_error_pct=np.nan, max_error_pct=np.nan, within_goal="reference",
+                                         fit=True), summary], ignore_index=True)
+    summary["machine"] = machine()
+    note = stamp(f"./holes bench presets --against {reference}")
+    atomic_csv(errors.round(3), out / "presets.csv", note)
+    atomic_csv(summary, out / "presets_summary.csv", note)
+    fig, axes = pyplot().subplots(1, 2, figsize=(13, 5))
+    ax = axes[0]
+    for r in summary.itertuples():
+        e = 0.0 if r.preset == reference else r.mean_error_pct
+        hi = 0.0 if r.preset == reference else r.max_error_pct - e
+        ax.errorbar(r.cpu_s_per_measured_hole, e, yerr=[[0], [hi]], fmt="o", capsize=3)
+        ax.annotate(r.preset, (r.cpu_s_per_measured_hole, e), fontsize=8, xytext=(4, 4), textcoords="offset points")
+    ax.axhline(GOAL_PCT, color="g", ls="--", lw=1, label=f"goal {GOAL_PCT:g} %")
+    ax.axhline(FIT_PCT, color="r", ls=":", lw=1, label=f"validation tolerance {FIT_PCT:g} %")
+    ax.set_xscale("log")
+    ax.set_xlabel("CPU time per measured hole, s (one thread per run)")
+    ax.set_ylabel("|shift|, % of the field mean\n(mean over soils and metrics; bar to the largest)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax = axes[1]
+    cells = [(s, m) for s in errors.soil.unique() for m in VALIDATED]
+    for i, preset in enumerate(presets):
+        g = errors[errors.preset == preset].set_index(["soil", "metric"])
+        x = np.arange(len(cells)) + 0.8 * i / max(1, len(presets)) - 0.3
+        y = [100 * g.loc[c, "shift"] / g.loc[c, "field_mean"] if c in g.index else np.nan for c in cells]
+        lo = [100 * (g.loc[c, "shift"] - g.loc[c, "shift_lo"]) / g.loc[c, "field_mean"] if c in g.index else np.nan
+              for c in cells]
+        ax.errorbar(x, y, yerr=lo, fmt="o", capsize=2, label=preset)
+    ax.axhspan(-GOAL_PCT, GOAL_PCT, color="g", alpha=0.1)
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_xticks(range(len(cells)), [f"{s} {m}" for s, m in cells], rotation=90, fontsize=7)
+    ax.set_ylabel("shift, % of the field mean (95 % interval)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    save(fig, out / "presets_summary.png", f"presets against {reference}: the same machine and strip\n{note}")
+    print(summary.to_string(index=False))
+    return 0

@@ -6,6 +6,7 @@ one is given (its workers need this project at the same path and a shared runs f
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -104,12 +105,17 @@ def share_cores(n_cases: int, asleep: bool, workers: int | None = None, threads:
     30 % more with the far field asleep (whose contact loop loses its balance on two threads;
     results/bench/README.md). So: side by side on one thread each when the cases fill the cores evenly, or
     when their far field sleeps; otherwise (one case; three all-awake strips on two cores, whose third would
-    run alone on one) one at a time on every core.
+    run alone on one) one at a time on every core. Sleeping strips, one thread each, run as many at a time as
+    finishes the batch soonest, up to two per core: the waves times each wave's share of a core,
+    ceil(n / w) · max(1, w / cores), least (the fewer workers on a tie); so three strips on two cores run at
+    once (1.5 against 2 for two and then one).
 
     >>> share_cores(3, False, cores=2), share_cores(3, True, cores=2), share_cores(4, False, cores=2)
-    ((1, 2), (2, 1), (2, 1))
+    ((1, 2), (3, 1), (2, 1))
     >>> share_cores(1, True, cores=2), share_cores(4, False, workers=1, cores=2), share_cores(4, False, threads=1, cores=2)
     ((1, 2), (1, 2), (2, 1))
+    >>> share_cores(2, True, cores=2), share_cores(4, True, cores=2), share_cores(5, True, cores=2)
+    ((2, 1), (2, 1), (2, 1))
     """
     cores = cores or os.cpu_count() or 1
     if workers and threads:
@@ -118,7 +124,10 @@ def share_cores(n_cases: int, asleep: bool, workers: int | None = None, threads:
         return workers, max(1, cores // workers)
     if threads:
         return max(1, cores // threads), threads
-    if n_cases >= 2 and (asleep or n_cases % cores == 0):
+    if n_cases >= 2 and asleep:
+        w = min(range(1, min(n_cases, 2 * cores) + 1), key=lambda w: (math.ceil(n_cases / w) * max(1, w / cores), w))
+        return w, 1
+    if n_cases >= 2 and n_cases % cores == 0:
         w = min(n_cases, cores)
         return w, max(1, cores // w)
     return 1, cores
