@@ -343,7 +343,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-run", action="store_true", help="measure and fit the finished or kept runs; run nothing")
     p.set_defaults(func=cmd_calibrate_machine)
     p = sub.add_parser("compare", help="the main job: run, measure and set the holes beside the field's Table 3")
-    p.add_argument("--preset", default="quick")
+    p.add_argument("--preset", default="validation_medium",
+                   help="run preset of configs/presets.toml (default validation_medium: the machine calibrated on "
+                   "clay, 8 holes per soil, r = 6 mm grains; validation_surface is the same at r = 5 mm)")
     p.add_argument("--soils", default="clay,loam,sand")
     p.add_argument("--seeds", type=option("--seeds", SEED, many=True), default=[1],
                    help="packing seeds, one run each, e.g. 1,2,3")

@@ -26,7 +26,8 @@ from analysis.holes.machine import TARGET_METRICS, load_of
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
 KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # a run's files kept beside the table
-KEPT_IF_THERE = ("load.json",)      # the calibrated machine's load W (analysis/holes/machine.py load_of)
+KEPT_IF_THERE = ("load.json",)
+MD_ORDER = ("validation_medium", "validation_surface", "quick", "graded", "paper")   # results/comparison.md: the main job first      # the calibrated machine's load W (analysis/holes/machine.py load_of)
 
 
 def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = None, parallel: int | None = None,
@@ -169,8 +170,8 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
         old = read_table(combined)
         table = pd.concat([old[old.preset != preset], table], ignore_index=True)
     atomic_csv(table.round(3), combined, "one row per preset, soil and metric; see results/comparison.md")
-    mds = sorted((p for p in folder.glob("*.md") if p.name != "README.md"), key=lambda p: ["quick", "graded", "paper"].index(p.stem)
-                 if p.stem in ("quick", "graded", "paper") else 9)
+    mds = sorted((p for p in folder.glob("*.md") if p.name != "README.md"),
+                 key=lambda p: (MD_ORDER.index(p.stem) if p.stem in MD_ORDER else len(MD_ORDER), p.stem))
     atomic_write(out / "comparison.md", "\n".join(p.read_text() for p in mds))
     compare.plot(table[table.preset == preset], holes, field, preset, folder, note)
     atomic_csv(compare.field_consistency(field, criteria["stated"]), folder / "field_consistency.csv",
