@@ -193,9 +193,10 @@ def cmd_bench(args) -> int:
         except ValueError as e:
             print(e, file=sys.stderr)
             return 2
-    if args.what in ("speed-vs-error", "economies"):
+    if args.what in ("speed-vs-error", "economies", "convergence"):
         from analysis.batch import bench
-        go = bench.run if args.what == "speed-vs-error" else bench.run_economies
+        go = {"speed-vs-error": bench.run, "economies": bench.run_economies,
+              "convergence": bench.run_convergence}[args.what]
         return go(args.workers, args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run)
     if args.what == "runs":
         from analysis.batch.bench import run_cost
@@ -367,19 +368,21 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs; "
                        "`bench speed-vs-error` runs one clay hole at several resolutions and `bench economies` "
                        "what each scene economy costs in error (analysis/batch/bench.py); "
+                       "`bench convergence`: one clay hole at r = 5, 4 and 3 mm on three packings each; "
                        "`bench presets`: each preset's holes against a reference preset's, with its cost per measured hole; "
                        "`bench peer`: one bed and punch in LIGGGHTS and in YADE (scripts/peer.py); "
                        "`bench collider --run R`: contact detection settings on run R's strip from its checkpoint "
                        "(scripts/collider_bench.py)")
-    p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "economies", "presets", "peer", "collider"])
+    p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "economies", "convergence", "presets", "peer",
+                                    "collider"])
     p.add_argument("--against", default="validation_surface",
                    help="presets: the reference preset (default validation_surface); every preset in "
                    "results/comparison.csv with its calibrated machine is set against it")
     p.add_argument("--run", help="collider: a run folder with a checkpoint")
     p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000, help="collider: steps per setting (default 3000)")
-    scene_batch_options(p, "speed-vs-error, economies: table folder (default results/bench)")
+    scene_batch_options(p, "speed-vs-error, economies, convergence: table folder (default results/bench)")
     p.add_argument("--no-run", action="store_true",
-                   help="speed-vs-error, economies: tabulate the finished cases only; run nothing")
+                   help="speed-vs-error, economies, convergence: tabulate the finished cases only; run nothing")
     p.set_defaults(func=cmd_bench)
     p = sub.add_parser("pepper", help="duck-beak mechanism (seed 000): goal-attainment design and results/pepper/")
     p.add_argument("--starts", type=option("--starts", STARTS), default=6, help="optimiser starts: Table 2's initial column + random")

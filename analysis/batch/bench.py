@@ -29,6 +29,7 @@ STUDY = ROOT / "configs/studies/speed_vs_error.toml"
 PACKINGS = ROOT / "configs/studies/speed_vs_error_packings.toml"
 SETTING = ["radius_mm", "dt_safety", "young_pa"]
 ECONOMIES = ROOT / "configs/studies/economies.toml"
+CONVERGENCE = ROOT / "configs/studies/convergence.toml"
 SCENE_FIELDS = ("width", "depth", "lead_in", "mode")     # what an economies case may change (else: a seed)
 
 
@@ -408,3 +409,62 @@ def run_presets(reference: str = "validation_surface", out=None, comparison_dir=
     save(fig, out / "presets_summary.png", f"presets against {reference}: the same machine and strip\n{note}")
     print(summary.to_string(index=False))
     return 0
+
+
+def convergence(table: pd.DataFrame, field: pd.DataFrame) -> pd.DataFrame:
+    """Convergence in grain size (configs/studies/convergence.toml): per grain radius and metric of
+    compare.VALIDATED, the packings' mean and SD, the shift of the mean from the finest radius's with Welch's 95 %
+    interval (compare.shift), in % of the soil's field mean, and `converged`: the shift not resolved and within
+    GOAL_PCT of the field mean (the rule fixed in the study file before its runs).
+
+    >>> t = pd.DataFrame({"soil": "clay", "preset": "quick", "resolution": ["quick"] * 3 + ["fine"] * 3,
+    ...                   "run": list("abcdef"), "L2": [50.0, 51.0, 52.0, 51.0, 52.0, 53.0]})
+    >>> f = pd.DataFrame({"soil": ["clay"], "run": ["mean"], "L2": [50.0]})
+    >>> c = convergence(t, f).set_index("radius_mm")
+    >>> c.loc[5.0, ["shift", "shift_pct_of_field", "resolved", "converged"]].tolist()
+    [-1.0, -2.0, False, True]
+    """
+    from analysis.holes.compare import FIELD_COLUMN, VALIDATED, shift
+    t = with_numerics(table)
+    soil = t.soil.iloc[0]
+    means = field[field["run"].astype(str) == "mean"].set_index("soil")
+    finest = t[t.radius_mm == t.radius_mm.min()]
+    rows = []
+    for radius, g in t.groupby("radius_mm"):
+        for m in (m for m in VALIDATED if m in t):
+            fm = float(means.loc[soil, FIELD_COLUMN.get(m, m)])
+            d = shift(g[m].mean(), g[m].std(), len(g), finest[m].mean(), finest[m].std(), len(finest))
+            rows.append({"soil": soil, "resolution": g.resolution.iloc[0], "radius_mm": radius, "metric": m,
+                         "packings": len(g), "mean": g[m].mean(), "sd": g[m].std(), "field_mean": fm, **d,
+                         "shift_pct_of_field": 100 * d["shift"] / fm,
+                         "converged": bool(not d["resolved"] and abs(100 * d["shift"] / fm) <= GOAL_PCT),
+                         "particles": g.particles.mean() if "particles" in g else np.nan,
+                         "steps": g.steps.mean() if "steps" in g else np.nan,
+                         "cpu_s": g.cpu_s.mean() if "cpu_s" in g else np.nan})
+    return pd.DataFrame(rows)
+
+
+def run_convergence(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_run=False) -> int:
+    """Run the convergence study (finished cases reused), then write results/bench/convergence.csv and .png."""
+    from analysis.holes.compare import field_table
+    out = Path(out or ROOT / "results/bench")
+    code, _, table = study_table(CONVERGENCE, workers, threads, runs_dir, bed_dir, out, no_run)
+    if table is None:
+        return 1
+    c = convergence(table, field_table())
+    c["machine"] = machine()
+    note = stamp("./holes bench convergence")
+    atomic_csv(c.round(4), out / "convergence.csv", note)
+    metrics = list(dict.fromkeys(c.metric))
+    fig, axes = pyplot().subplots(1, len(metrics), figsize=(3.2 * len(metrics), 4))
+    for ax, m in zip(np.atleast_1d(axes), metrics):
+        g = c[c.metric == m]
+        ax.errorbar(g.radius_mm, g["mean"], yerr=g.sd, fmt="o-", capsize=3, label="mean ± SD of the packings")
+        ax.axhline(g.field_mean.iloc[0], color="k", ls=":", lw=1, label="field mean")
+        ax.set_xlabel("grain radius r, mm")
+        ax.set_ylabel(f"{m}, mm")
+        ax.grid(alpha=0.3)
+    np.atleast_1d(axes)[0].legend(fontsize=7)
+    save(fig, out / "convergence.png", f"convergence in grain size, one clay hole on a short strip\n{note}")
+    print(c.drop(columns=["machine"]).round(2).to_string(index=False))
+    return code

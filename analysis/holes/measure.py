@@ -46,14 +46,21 @@ def hole_tool(cfg: dict) -> tuple[float, float]:
 def hole_centres(summary: dict) -> list:
     """Every hole's x (mm), lead-in holes first: the prescribed layout's, except in free mode, where the disk
     rolls as the soil lets it and the k-th hole is where the k-th punch passage into the soil was deepest
-    (summary `hole_x_formed_mm`, from the run's record; a hole the record lacks keeps the layout's x).
+    (summary `hole_x_formed_mm`, from the run's record; a hole the record lacks keeps the layout's x). A passage
+    before the bed's start (x < 0: the punch standing at its lowest under the axis when the run starts, where no
+    soil is) is not a hole.
 
     >>> hole_centres({"mode": "free", "hole_x_mm": [100, 300, 500], "hole_x_formed_mm": [110.0, 322.0]})
     [110.0, 322.0, 500]
+    >>> hole_centres({"mode": "free", "hole_x_mm": [100, 300], "hole_x_formed_mm": [-84.0, 170.0, 370.0, 570.0]})
+    [170.0, 370.0]
     """
     planned = list(summary["hole_x_mm"])
     formed = summary.get("hole_x_formed_mm") if summary.get("mode") == "free" else None
-    return planned if formed is None else [*formed[:len(planned)], *planned[len(formed):]]
+    if formed is None:
+        return planned
+    formed = [x for x in formed if x >= 0]
+    return [*formed[:len(planned)], *planned[len(formed):]]
 
 
 def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
