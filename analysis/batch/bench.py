@@ -315,9 +315,22 @@ def preset_errors(comparison: pd.DataFrame, reference: str, presets: list[str]) 
     return pd.DataFrame(rows)
 
 
+def preset_cost(costs: pd.DataFrame, preset: str) -> dict:
+    """A preset's runs (`run_cost` rows) summed up: their number, grains, measured holes, threads, and the cost per
+    measured hole (CPU and wall, mean over runs); empty values when it has none."""
+    c = costs[costs.preset == preset] if len(costs) else costs
+    if not len(c):
+        return {"runs": 0, "particles": np.nan, "measured_holes": np.nan, "threads": "",
+                "cpu_s_per_measured_hole": np.nan, "wall_s_per_measured_hole": np.nan}
+    return {"runs": len(c), "particles": int(c.particles.mean()), "measured_holes": int(c.measured_holes.sum()),
+            "threads": "/".join(map(str, sorted(set(c.threads)))),
+            "cpu_s_per_measured_hole": round(c.cpu_s_per_measured_hole.mean(), 1),
+            "wall_s_per_measured_hole": round(c.wall_s_per_measured_hole.mean(), 1)}
+
+
 def preset_summary(errors: pd.DataFrame, costs: pd.DataFrame) -> pd.DataFrame:
     """Per preset: the mean and largest error, the soil-metric shifts within the goal, those against its fitness,
-    and its cost per measured hole (CPU and wall, from its runs' `run_cost` rows: mean over runs).
+    and its cost per measured hole (preset_cost).
 
     >>> e = pd.DataFrame({"preset": ["a", "a"], "error_pct": [1.0, 12.0], "within_goal": [True, False],
     ...                   "against_fit": [False, True]})
@@ -327,19 +340,12 @@ def preset_summary(errors: pd.DataFrame, costs: pd.DataFrame) -> pd.DataFrame:
     >>> s.mean_error_pct, s.max_error_pct, s.within_goal, s.against_fit, s.fit, s.cpu_s_per_measured_hole
     (6.5, 12.0, '1/2', 1, False, 50.0)
     """
-    rows = []
-    for preset, g in errors.groupby("preset", sort=False):
-        c = costs[costs.preset == preset]
-        rows.append({"preset": preset, "mean_error_pct": round(g.error_pct.mean(), 1),
-                     "max_error_pct": round(g.error_pct.max(), 1),
-                     "within_goal": f"{int(g.within_goal.sum())}/{len(g)}", "against_fit": int(g.against_fit.sum()),
-                     "fit": not g.against_fit.any(), "runs": len(c),
-                     "particles": int(c.particles.mean()) if len(c) else np.nan,
-                     "measured_holes": int(c.measured_holes.sum()) if len(c) else np.nan,
-                     "threads": "/".join(map(str, sorted(set(c.threads)))) if len(c) else "",
-                     "cpu_s_per_measured_hole": round(c.cpu_s_per_measured_hole.mean(), 1) if len(c) else np.nan,
-                     "wall_s_per_measured_hole": round(c.wall_s_per_measured_hole.mean(), 1) if len(c) else np.nan})
-    return pd.DataFrame(rows)
+    return pd.DataFrame([{"preset": preset, "mean_error_pct": round(g.error_pct.mean(), 1),
+                          "max_error_pct": round(g.error_pct.max(), 1),
+                          "within_goal": f"{int(g.within_goal.sum())}/{len(g)}",
+                          "against_fit": int(g.against_fit.sum()), "fit": not g.against_fit.any(),
+                          **preset_cost(costs, preset)}
+                         for preset, g in errors.groupby("preset", sort=False)])
 
 
 def run_presets(reference: str = "validation_surface", out=None, comparison_dir=None) -> int:
@@ -368,11 +374,9 @@ def run_presets(reference: str = "validation_surface", out=None, comparison_dir=
                 costs.append(run_cost(json.loads(summary.read_text())))
     costs = pd.DataFrame(costs)
     errors = preset_errors(comparison, reference, presets)
-    summary = preset_summary(errors, costs)
-    ref_cost = preset_summary(pd.DataFrame([{"preset": reference, "error_pct": 0.0, "within_goal": True,
-                                             "against_fit": False}]), costs)
-    summary = pd.concat([ref_cost.assign(mean_error_pct=np.nan, max_error_pct=np.nan, within_goal="reference",
-                                         fit=True), summary], ignore_index=True)
+    ref = {"preset": reference, "mean_error_pct": np.nan, "max_error_pct": np.nan, "within_goal": "reference",
+           "against_fit": 0, "fit": True, **preset_cost(costs, reference)}
+    summary = pd.concat([pd.DataFrame([ref]), preset_summary(errors, costs)], ignore_index=True)
     summary["machine"] = machine()
     note = stamp(f"./holes bench presets --against {reference}")
     atomic_csv(errors.round(3), out / "presets.csv", note)
@@ -397,9 +401,9 @@ def run_presets(reference: str = "validation_surface", out=None, comparison_dir=
         g = errors[errors.preset == preset].set_index(["soil", "metric"])
         x = np.arange(len(cells)) + 0.8 * i / max(1, len(presets)) - 0.3
         y = [100 * g.loc[c, "shift"] / g.loc[c, "field_mean"] if c in g.index else np.nan for c in cells]
-        lo = [100 * (g.loc[c, "shift"] - g.loc[c, "shift_lo"]) / g.loc[c, "field_mean"] if c in g.index else np.nan
-              for c in cells]
-        ax.errorbar(x, y, yerr=lo, fmt="o", capsize=2, label=preset)
+        half = [100 * (g.loc[c, "shift"] - g.loc[c, "shift_lo"]) / g.loc[c, "field_mean"] if c in g.index else np.nan
+                for c in cells]
+        ax.errorbar(x, y, yerr=half, fmt="o", capsize=2, label=preset)
     ax.axhspan(-GOAL_PCT, GOAL_PCT, color="g", alpha=0.1)
     ax.axhline(0, color="k", lw=0.5)
     ax.set_xticks(range(len(cells)), [f"{s} {m}" for s, m in cells], rotation=90, fontsize=7)

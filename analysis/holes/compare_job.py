@@ -26,8 +26,8 @@ from analysis.holes.machine import TARGET_METRICS, load_of
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
 KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # a run's files kept beside the table
-KEPT_IF_THERE = ("load.json",)
-MD_ORDER = ("validation_medium", "validation_surface", "quick", "graded", "paper")   # results/comparison.md: the main job first      # the calibrated machine's load W (analysis/holes/machine.py load_of)
+KEPT_IF_THERE = ("load.json",)      # the calibrated machine's load W (analysis/holes/machine.py load_of)
+MD_ORDER = ("validation_medium", "validation_surface", "quick", "graded", "paper")   # results/comparison.md: the main job first
 
 
 def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = None, parallel: int | None = None,
