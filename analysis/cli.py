@@ -173,19 +173,21 @@ def cmd_bench(args) -> int:
     """`bench beds`: every bed's own measured settling cost (from its metadata) with the machine;
     `bench runs`: every finished disk run's cost (in --runs-dir), and the wall time per 200 mm of travel (one
     hole), added to the runs already tabulated; duck-beak runs, which have no travel, are left out;
-    `bench speed-vs-error`, `bench economies`: analysis/batch/bench.py; `bench peer`: scripts/peer.py (LIGGGHTS
-    beside YADE); `bench collider`: scripts/collider_bench.py (contact detection settings from a run's
-    checkpoint)."""
+    `bench ladder`, `bench economies`, `bench convergence`, `bench presets`, `bench speed-vs-error`:
+    analysis/batch/bench.py; `bench peer`: scripts/peer.py (LIGGGHTS
+    beside YADE); `bench collider`, `bench profile`: scripts/collider_bench.py (contact detection settings, or
+    the adopted one's time per part, from a run's checkpoint)."""
     import json
     import pandas as pd
     from analysis.core.io import atomic_csv, machine, stamp
     if args.what == "peer":
         return run_scene("peer.py", [])
-    if args.what == "collider":
+    if args.what in ("collider", "profile"):
         if not args.run:
-            print("bench collider: give --run results/runs/<id>, a run with a checkpoint", file=sys.stderr)
+            print(f"bench {args.what}: give --run results/runs/<id>, a run with a checkpoint", file=sys.stderr)
             return 2
-        return run_scene("collider_bench.py", [args.run, "--steps", str(args.steps), "--threads", str(args.threads or 2)])
+        return run_scene("collider_bench.py", [args.run, "--steps", str(args.steps), "--threads", str(args.threads or 2),
+                                               *(["--profile"] if args.what == "profile" else [])])
     if args.what == "presets":
         from analysis.batch import bench
         try:
@@ -193,9 +195,12 @@ def cmd_bench(args) -> int:
         except ValueError as e:
             print(e, file=sys.stderr)
             return 2
-    if args.what in ("speed-vs-error", "economies", "convergence"):
+    if args.what == "speed-vs-error":
         from analysis.batch import bench
-        go = {"speed-vs-error": bench.run, "economies": bench.run_economies,
+        return bench.run_speed_vs_error(args.out)
+    if args.what in ("ladder", "economies", "convergence"):
+        from analysis.batch import bench
+        go = {"ladder": bench.run, "economies": bench.run_economies,
               "convergence": bench.run_convergence}[args.what]
         return go(args.workers, args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run)
     if args.what == "runs":
@@ -366,23 +371,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-run", action="store_true", help="table and plot of the cases that finished; run nothing")
     p.set_defaults(func=cmd_study)
     p = sub.add_parser("bench", help="benchmarks: `bench beds` / `bench runs` tabulate measured costs; "
-                       "`bench speed-vs-error` runs one clay hole at several resolutions and `bench economies` "
+                       "`bench ladder` runs one clay hole at several resolutions and `bench economies` "
                        "what each scene economy costs in error (analysis/batch/bench.py); "
-                       "`bench convergence`: one clay hole at r = 5, 4 and 3 mm on three packings each; "
+                       "`bench convergence`: one clay hole at r = 8, 6, 5, 4 and 3 mm on three packings each; "
                        "`bench presets`: each preset's holes against a reference preset's, with its cost per measured hole; "
+                       "`bench speed-vs-error`: each preset against the converged grains (from presets and convergence); "
                        "`bench peer`: one bed and punch in LIGGGHTS and in YADE (scripts/peer.py); "
-                       "`bench collider --run R`: contact detection settings on run R's strip from its checkpoint "
-                       "(scripts/collider_bench.py)")
-    p.add_argument("what", choices=["beds", "runs", "speed-vs-error", "economies", "convergence", "presets", "peer",
-                                    "collider"])
+                       "`bench collider --run R`: contact detection settings on run R's strip from its checkpoint, "
+                       "`bench profile --run R`: where its time goes, per part (scripts/collider_bench.py)")
+    p.add_argument("what", choices=["beds", "runs", "ladder", "economies", "convergence", "presets", "speed-vs-error",
+                                    "peer", "collider", "profile"])
     p.add_argument("--against", default="validation_surface",
                    help="presets: the reference preset (default validation_surface); every preset in "
                    "results/comparison.csv with its calibrated machine is set against it")
-    p.add_argument("--run", help="collider: a run folder with a checkpoint")
-    p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000, help="collider: steps per setting (default 3000)")
-    scene_batch_options(p, "speed-vs-error, economies, convergence: table folder (default results/bench)")
+    p.add_argument("--run", help="collider, profile: a run folder with a checkpoint")
+    p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000, help="collider, profile: steps per setting (default 3000)")
+    scene_batch_options(p, "ladder, economies, convergence, presets, speed-vs-error: table folder (default "
+                        "results/bench; ladder: results/bench/ladder)")
     p.add_argument("--no-run", action="store_true",
-                   help="speed-vs-error, economies, convergence: tabulate the finished cases only; run nothing")
+                   help="ladder, economies, convergence: tabulate the finished cases only; run nothing")
     p.set_defaults(func=cmd_bench)
     p = sub.add_parser("pepper", help="duck-beak mechanism (seed 000): goal-attainment design and results/pepper/")
     p.add_argument("--starts", type=option("--starts", STARTS), default=6, help="optimiser starts: Table 2's initial column + random")

@@ -14,7 +14,8 @@ amplifies. Writes results/bench/collider.csv: per setting the wall time of the s
 runs, interactions and real contacts at the end, the grains' drift from the first realisation (RMS and
 largest, mm), and the share of the wall time each part of the scene took (YADE's `O.timingEnabled`: the
 collider, the contact loop, Newton's integration with the force reset, the disk's Python hook, the tools'
-kinematic engines; the rest is the stability guard and YADE's loop).
+kinematic engines; the rest is the stability guard and YADE's loop). With `--profile` only the adopted setting
+runs, once: where a run's time goes (`./holes bench profile`, results/bench/profile.csv, one row per run given).
 """
 from __future__ import annotations
 
@@ -26,7 +27,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.core.config import COLLIDER_STEPS, ROOT, THREADS, CommandLine, option  # noqa: E402
-from analysis.core.io import atomic_csv, machine, stamp  # noqa: E402
+from analysis.core.io import atomic_csv, machine, read_table, stamp  # noqa: E402
 
 SETTINGS = [                # (name, InsertionSortCollider attributes); the first, YADE's default, runs twice
     ("YADE default: verletDist 0.5 r, targetInterv 100", {"verletDist": -0.5, "targetInterv": 100}),
@@ -35,6 +36,7 @@ SETTINGS = [                # (name, InsertionSortCollider attributes); the firs
     ("verletDist 0.5 mm, targetInterv 0", {"verletDist": 5e-4, "targetInterv": 0}),   # disk.COLLIDER since 2026-11-25
     ("verletDist 1 mm, targetInterv 0", {"verletDist": 1e-3, "targetInterv": 0}),
 ]
+ADOPTED = 3                 # SETTINGS' index of disk_parts.COLLIDER, the scenes' own setting
 
 PARTS = {"collider": "collider", "InteractionLoop": "contacts", "newton": "integration", "hook": "hook",
          "ForceResetter": "integration"}     # the scene's engines (YADE's timing) by part; the rest move the tools
@@ -49,8 +51,12 @@ def main(argv=None) -> int:
     p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000,
                    help="steps per setting, [200, 100000] (default 3000)")
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
-    p.add_argument("--out", default=str(ROOT / "results/bench/collider.csv"))
+    p.add_argument("--out", default=None, help="table (default results/bench/collider.csv; --profile: profile.csv, "
+                   "its rows of other runs kept)")
+    p.add_argument("--profile", action="store_true", help="the adopted setting only, once: where the run's time goes")
     a = p.parse_args(argv)
+    a.out = a.out or str(ROOT / "results/bench" / ("profile.csv" if a.profile else "collider.csv"))
+    settings = [SETTINGS[ADOPTED]] if a.profile else SETTINGS
     run = Path(a.run)
     if not (run / disk.CHECKPOINT).exists() or not (run / "config.json").exists():
         print(f"bench collider: {run} has no checkpoint.json and config.json: give a run stopped while running",
@@ -60,7 +66,7 @@ def main(argv=None) -> int:
     ck = json.loads((run / disk.CHECKPOINT).read_text())
     rows, ref = [], None
     with tempfile.TemporaryDirectory(prefix="collider-bench-") as scratch:
-        for k, (name, attrs) in enumerate(SETTINGS):
+        for k, (name, attrs) in enumerate(settings):
             folder = Path(scratch) / str(k) / params["id"]
             folder.mkdir(parents=True)
             for f in (disk.CHECKPOINT, ck["scene"]):
@@ -73,18 +79,23 @@ def main(argv=None) -> int:
                      for part in ("collider", "contacts", "integration", "hook", "kinematics")}
             ref = pos if ref is None else ref
             drift = 1e3 * np.linalg.norm(pos - ref, axis=1)
-            rows.append({"setting": name, **{f"collider_{key}": v for key, v in attrs.items()},
+            rows.append({"run": params["id"], "preset": params["preset"]["name"], "setting": name,
+                         **{f"collider_{key}": v for key, v in attrs.items()},
                          "from_step": ck["iter"], "steps": seg["steps"], "particles": seg["particles"],
                          "wall_s": round(seg["wall_s"], 1),
                          "particle_steps_per_s": round(seg["particles"] * seg["steps"] / seg["wall_s"]),
                          "detections": seg["detections"], "interactions": seg["interactions"],
-                         "contacts": seg["contacts"], "drift_rms_mm": round(float(np.sqrt(np.mean(drift ** 2))), 4),
+                         "contacts": seg["contacts"], "awake": seg["awake"], "drift_rms_mm": round(float(np.sqrt(np.mean(drift ** 2))), 4),
                          "drift_max_mm": round(float(drift.max()), 3),
                          **{f"share_{part}": round(v, 3) for part, v in share.items()},
                          "threads": a.threads, "machine": machine()})
             print(pd.DataFrame(rows[-1:]).to_string(index=False), file=sys.stderr, flush=True)
     table = pd.DataFrame(rows)
-    atomic_csv(table, Path(a.out), stamp(f"./holes bench collider --run {a.run} --steps {a.steps}") +
+    if a.profile and Path(a.out).exists():       # one row per run profiled: the others' rows stay
+        earlier = read_table(a.out)
+        table = pd.concat([earlier[earlier.run != params["id"]], table], ignore_index=True)
+    what = "profile" if a.profile else "collider"
+    atomic_csv(table, Path(a.out), stamp(f"./holes bench {what} --run {a.run} --steps {a.steps}") +
                f"; run {params['id']}")
     print(table.to_string(index=False))
     return 0

@@ -168,12 +168,10 @@ class Motion:
             if not active and st["s"][k] == 0.0:
                 continue
             ax, _ = frame(phi)
-            f_plate = Vector3(0, 0, 0)
-            for i in self.tool.plate_ids[k]:
-                f_plate += O.forces.f(i)
+            f_axial = utils.sumForces(self.tool.plate_ids[k], ax)     # the soil's push on the plate along the punch
             s, sdot = st["s"][k], st["sdot"][k]
             rho = self.u_plate0 - s
-            force = (-f_plate.dot(ax) - (sleeve.preload + k_s * s) - c_s * sdot
+            force = (-f_axial - (sleeve.preload + k_s * s) - c_s * sdot
                      + m_s * g * math.cos(phi) + m_s * st["omega"] ** 2 * rho)
             sdot += force / m_s * dt
             if s + sdot * dt < 0.0:
@@ -185,7 +183,7 @@ class Motion:
             st["s_max"][k] = max(st["s_max"][k], st["s"][k])
             self.slides[k].translationAxis = -ax
             self.slides[k].velocity = sdot
-            slide_power += sdot * f_plate.dot(ax)
+            slide_power += sdot * f_axial
         torque = utils.sumTorques(self.tool.ids, self._y_dir, axis)
         if self.free:                       # I dω/dt = M_y: the soil turns the disk
             st["omega"] += torque / self.inertia * dt
@@ -557,6 +555,7 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         import numpy as np
         return {"steps": O.iter - iter0, "wall_s": time.time() - loop0, "detections": detector.numAction - detections0,
                 "interactions": len(O.interactions), "contacts": O.interactions.countReal(), "particles": n_particles,
+                "awake": window.n_awake if window else n_particles,
                 "engine_s": {e.label or type(e).__name__: (e.execTime - t0) * 1e-9 for e, t0 in zip(O.engines, exec0)},
                 "pos": np.array([tuple(O.bodies[i].state.pos) for i in grain_ids])}
     wall, cpu = time.time() - wall0, time.process_time() - cpu0

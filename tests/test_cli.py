@@ -25,7 +25,7 @@ from analysis.core.config import ROOT, ConfigError
     (["rings", "/nonexistent"], "/nonexistent"),
     (["pepper", "--starts", "0"], "--starts"),
     (["pepper-frame", "--screen", "x"], "--screen"),
-    (["bench", "speed-vs-error", "--threads", "0"], "--threads"),
+    (["bench", "ladder", "--threads", "0"], "--threads"),
 ])
 def test_bad_option_exits_2_naming_it_and_its_range(argv, field, tmp_path, capsys):
     with pytest.raises(SystemExit) as e:

@@ -118,6 +118,22 @@ def test_bad_graded_resolution_is_refused(tmp_path):
         plan("clay", "graded", resolution="graded", width=120)
     with pytest.raises(ConfigError, match=r"allowed with lateral = 'walls' only"):
         plan("clay", "graded", resolution="graded", lateral="periodic")
+
+
+def test_every_graded_preset_keeps_its_tools_in_the_fine_zone():
+    """A graded preset's fine zone holds the plate's path and its machine's deepest tip, each with at least 1.5 fine
+    radii of fine grains beyond it (configs/presets.toml, resolutions.toml, machine.toml); the graded study's
+    shallower zone (configs/studies/graded.toml) is a study's question, not a preset."""
+    from analysis.core.config import load_preset, load_resolution, read_toml
+    from analysis.core.run_spec import plan
+    graded = [name for name in read_toml(ROOT / "configs/presets.toml")
+              if load_resolution(load_preset(name).resolution).graded]
+    assert {"graded", "validation_graded"} <= set(graded)
+    for name in graded:
+        p = plan("clay", name)
+        g, margin = p["graded"], 1.5 * 1000 * p["graded"]["radius"]
+        assert 1000 * g["fine_width"] >= p["sleeve"]["outer_diameter"] + 2 * margin, name
+        assert 1000 * g["fine_depth"] >= p["disk"]["penetration"] + margin, name
     with pytest.raises(ConfigError, match=r"fine_width = 100 mm is out of range: allowed > sleeve outer diameter 110 mm"):
         plan("clay", "graded", resolution="graded", tool={"sleeve.outer_diameter": 110.0})
     assert plan("clay", "graded", resolution="graded")["graded"]["coarse_radius"] == 0.008

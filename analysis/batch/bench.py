@@ -1,9 +1,13 @@
-"""Speed against error (issue 7): one clay hole at several particle sizes, time steps and contact stiffnesses
-(configs/studies/speed_vs_error.toml, run as a study), each case's cost beside the error of its hole metrics
-against the finest case and against the field mean (seed 001 Table 3).
+"""Cost against error. The ladder (issue 7): one clay hole at several particle sizes, time steps and contact
+stiffnesses (configs/studies/speed_vs_error.toml, run as a study), each case's cost beside the error of its hole
+metrics against the finest case and against the field mean (seed 001 Table 3). The presets against each other
+and against converged grains (the main job's choice), the convergence in grain size and the economies.
 
-    ./holes bench speed-vs-error      ->  results/bench/speed_vs_error{,_packings}{.csv,_settings.csv,.png}
+    ./holes bench ladder              ->  results/bench/ladder/speed_vs_error{,_packings}{.csv,_settings.csv,.png}
     ./holes bench economies           ->  results/bench/economies.csv and .png
+    ./holes bench convergence         ->  results/bench/convergence.csv and .png
+    ./holes bench presets             ->  results/bench/presets.csv, presets_summary.csv and .png
+    ./holes bench speed-vs-error      ->  results/bench/speed_vs_error.csv, speed_vs_error_summary.csv and .png
 
 Error of a case: for each of L0, L1, L2 and h1 the difference from the reference (mm), and their mean size
 relative to the field's mean of each metric, mean |m - ref| / field (the `err_*_pct` columns). The field mean
@@ -16,6 +20,7 @@ settings' means.
 """
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -254,7 +259,7 @@ def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_ru
     not (speed_vs_error's cases were made with the first calibration's clay bond, its packings study with the
     third's)."""
     from analysis.holes.compare import field_table
-    out = Path(out or ROOT / "results/bench")
+    out = Path(out or ROOT / "results/bench/ladder")
     codes = []
     for study_path in study_paths:
         code, name, table = study_table(study_path, workers, threads, runs_dir, bed_dir, out, no_run)
@@ -262,7 +267,7 @@ def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_ru
         if table is None:
             continue
         t = errors(table, field_table())
-        note = stamp("./holes bench speed-vs-error")
+        note = stamp("./holes bench ladder")
         cols = ["run", "soil", "seed", "resolution", "radius_mm", "dt_safety", "young_pa", "particles", "steps",
                 "wall_s", "threads", "particle_steps_per_s", *METRICS, *(f"{m}_vs_finest" for m in METRICS),
                 *(f"{m}_vs_field" for m in METRICS), "err_finest_pct", "err_field_pct", "reference", "machine"]
@@ -472,3 +477,96 @@ def run_convergence(workers: int, threads: int, runs_dir=None, bed_dir=None, out
     save(fig, out / "convergence.png", f"convergence in grain size, one clay hole on a short strip\n{note}")
     print(c.drop(columns=["machine"]).round(2).to_string(index=False))
     return code
+
+
+# Speed against error (`./holes bench speed-vs-error`): every preset of `bench presets` against the converged
+# reference, r = 3 mm grains (`bench convergence`). A preset's shift from it is the chain of two measured shifts:
+# the preset's from the reference preset on the same long strip and machine (presets.csv, per soil, 8 holes a side)
+# and the reference preset's grain's from r = 3 mm on the convergence strip (convergence.csv: clay only, so taken
+# for every soil), their 95 % half-widths added in quadrature. Judged by the presets' goal: |shift| within GOAL_PCT
+# of the field mean.
+def speed_vs_error(presets: pd.DataFrame, summary: pd.DataFrame, ladder: pd.DataFrame, radius_mm: float) -> pd.DataFrame:
+    """One row per preset (the reference preset, radius `radius_mm`, and the candidates of `presets`), soil and
+    metric: the two shifts, their sum `shift` with `shift_lo`/`shift_hi`, `error_pct` (|shift| / field mean),
+    `resolved`, `within_goal`, and the preset's cost per measured hole (`summary`, presets_summary.csv).
+
+    >>> p = pd.DataFrame({"preset": ["a"], "reference": ["ref"], "soil": ["loam"], "metric": ["L2"], "field_mean": [50.0],
+    ...                   "reference_mean": [40.0], "shift": [3.0], "shift_lo": [0.0], "shift_hi": [6.0]})
+    >>> s = pd.DataFrame({"preset": ["ref", "a"], "cpu_s_per_measured_hole": [100.0, 20.0],
+    ...                   "wall_s_per_measured_hole": [120.0, 30.0]})
+    >>> c = pd.DataFrame({"radius_mm": [5.0, 3.0], "metric": ["L2", "L2"], "shift": [-1.0, 0.0], "shift_lo": [-5.0, 0.0],
+    ...                   "shift_hi": [3.0, 0.0], "mean": [39.0, 40.0]})
+    >>> e = speed_vs_error(p, s, c, 5.0).set_index("preset")
+    >>> e.loc["ref", ["shift", "error_pct", "resolved"]].tolist(), e.loc["a", ["shift", "shift_hi", "error_pct"]].tolist()
+    ([-1.0, 2.0, False], [2.0, 7.0, 4.0])
+    """
+    grain = ladder[ladder.radius_mm == radius_mm].set_index("metric")
+    reference = presets.reference.iloc[0]
+    rows = [{"preset": reference, "soil": r.soil, "metric": r.metric, "field_mean": r.field_mean,
+             "mean": r.reference_mean, "preset_shift": 0.0, "preset_half": 0.0}
+            for r in presets.drop_duplicates(["soil", "metric"]).itertuples()]
+    rows += [{"preset": r.preset, "soil": r.soil, "metric": r.metric, "field_mean": r.field_mean,
+              "mean": r.reference_mean + r.shift, "preset_shift": r.shift, "preset_half": (r.shift_hi - r.shift_lo) / 2}
+             for r in presets.itertuples()]
+    t = pd.DataFrame(rows)
+    t = t[t.metric.isin(grain.index)].copy()
+    t["grain_shift"] = t.metric.map(grain["shift"])
+    t["grain_half"] = t.metric.map((grain.shift_hi - grain.shift_lo) / 2)
+    t["shift"] = t.preset_shift + t.grain_shift
+    half = np.sqrt(t.preset_half ** 2 + t.grain_half ** 2)
+    t["shift_lo"], t["shift_hi"] = t["shift"] - half, t["shift"] + half
+    t["resolved"] = (t.shift_lo > 0) | (t.shift_hi < 0)
+    t["error_pct"] = 100 * t["shift"].abs() / t.field_mean
+    t["within_goal"] = t.error_pct <= GOAL_PCT
+    cost = summary.set_index("preset")
+    for c in ("cpu_s_per_measured_hole", "wall_s_per_measured_hole"):
+        t[c] = t.preset.map(cost[c])
+    t["reference"] = f"r = {ladder.radius_mm.min():g} mm (convergence.csv) via {reference}"
+    return t.reset_index(drop=True)
+
+
+def run_speed_vs_error(out=None) -> int:
+    """`./holes bench speed-vs-error`: speed_vs_error.csv (per preset, soil and metric), speed_vs_error_summary.csv
+    (per preset) and .png from presets.csv, presets_summary.csv and convergence.csv in `out` (results/bench); runs
+    nothing."""
+    out = Path(out or ROOT / "results/bench")
+    need = [out / f for f in ("presets.csv", "presets_summary.csv", "convergence.csv")]
+    if missing := [str(p) for p in need if not p.exists()]:
+        print(f"bench speed-vs-error: missing {', '.join(missing)}: make them with ./holes bench presets and "
+              "./holes bench convergence", file=sys.stderr)
+        return 1
+    presets, summary, ladder = (read_table(p) for p in need)
+    reference = presets.reference.iloc[0]
+    radius = 1000 * load_resolution(load_preset(reference).resolution).radius
+    if radius not in set(ladder.radius_mm):
+        print(f"bench speed-vs-error: the reference preset {reference!r} has r = {radius:g} mm grains, not on the "
+              f"convergence ladder (r = {', '.join(f'{r:g}' for r in sorted(set(ladder.radius_mm)))} mm)", file=sys.stderr)
+        return 1
+    t = speed_vs_error(presets, summary, ladder, radius)
+    t["machine"] = machine()
+    s = pd.DataFrame([{"preset": p, "resolution": load_preset(p).resolution,
+                       "cpu_s_per_measured_hole": g.cpu_s_per_measured_hole.iloc[0],
+                       "wall_s_per_measured_hole": g.wall_s_per_measured_hole.iloc[0],
+                       "mean_error_pct": round(g.error_pct.mean(), 1), "max_error_pct": round(g.error_pct.max(), 1),
+                       "within_goal": f"{int(g.within_goal.sum())}/{len(g)}", "resolved": int(g.resolved.sum()),
+                       "max_error_cell": "{} {}".format(*g.loc[g.error_pct.idxmax(), ["soil", "metric"]])}
+                      for p, g in t.groupby("preset", sort=False)])
+    note = stamp("./holes bench speed-vs-error")
+    atomic_csv(t.round(3), out / "speed_vs_error.csv", note)
+    atomic_csv(s, out / "speed_vs_error_summary.csv", note)
+    fig, ax = pyplot().subplots(figsize=(8, 5))
+    for r in s.itertuples():
+        ax.errorbar(r.cpu_s_per_measured_hole, r.mean_error_pct, yerr=[[0], [r.max_error_pct - r.mean_error_pct]],
+                    fmt="o", capsize=3)
+        ax.annotate(r.preset, (r.cpu_s_per_measured_hole, r.mean_error_pct), fontsize=8, xytext=(4, 4),
+                    textcoords="offset points")
+    ax.axhline(GOAL_PCT, color="g", ls="--", lw=1, label=f"goal: {GOAL_PCT:g} % of the field mean")
+    ax.axvline(120, color="g", ls=":", lw=1, label="goal: 60 s of a 2-core machine per hole (120 s of CPU)")
+    ax.set_xscale("log")
+    ax.set_xlabel("CPU time per measured hole, s (one thread per run)")
+    ax.set_ylabel("|shift| from r = 3 mm grains, % of the field mean\n(mean over soils and metrics; bar to the largest)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    save(fig, out / "speed_vs_error.png", f"presets against converged grains (r = 3 mm) via {reference}\n{note}")
+    print(s.to_string(index=False))
+    return 0
