@@ -269,6 +269,10 @@ class AwakeWindow:
         self.reach_x = (math.sqrt(max(disk.R ** 2 - lay.H0 ** 2, 0.0)) + disk.d) * MM
         # the window's last position (m), its moves, their energy jumps (J) and wall time (s), the grain-steps
         # awake, and the fastest grain put to sleep behind and ahead of it (m/s)
+        # (step, the contacts' elastic energy, J) where a checkpoint was saved: a move at that step, before any has
+        # run since loading, reads it there (YADE's law functor knows its scene only once a step has run: asking it
+        # before crashes)
+        self.elastic_at_load = None
         self.state = {"window_x": -math.inf, "moves": 0, "window_energy": 0.0, "window_s": 0.0, "awake_steps": 0.0,
                       "slept_vmax": 0.0, "front_vmax": 0.0}
         self.count_awake()
@@ -288,7 +292,8 @@ class AwakeWindow:
         from yade import O
         st = self.state
         x, t0 = self.motion.axis0[0] + self.motion.v * O.time, time.time()
-        e0 = self.law.elasticEnergy()
+        loaded = self.elastic_at_load
+        e0 = loaded[1] if loaded and loaded[0] == O.iter else self.law.elasticEnergy()
         woke, slept, lost, v_rear, v_front = sleep_outside(self.grain_ids, x - self.reach_x - self.behind * MM,
                                                            x + self.reach_x + self.ahead * MM, self.detector,
                                                            self.restless)
@@ -510,7 +515,12 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
     window = AwakeWindow(params["awake_mm"], grain_ids, detector, law, motion, tip_speed) \
         if params.get("awake_mm") else None
     if resumed and window:
+        if "elastic_J" not in ck:
+            raise RuntimeError(f"{out / CHECKPOINT} has no elastic_J (saved before sleeping runs could resume); run "
+                               "again with --rerun")
         window.state.update(ck["window"])
+        window.elastic_at_load = (ck["iter"], ck["elastic_J"])
+        window.move()                       # set where it stands now, before any step: every resume takes this path
 
     if not resumed:
         O.run(1, True)                      # the bed's contacts exist from here on: the balance starts here
@@ -538,7 +548,8 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         if checkpoint_every and time.time() - last_save > checkpoint_every and O.iter < n_steps:
             save_checkpoint(out, {"motion": motion.state, "recorder": recorder.state,
                                   "window": window.state if window else None, "energy0": energy0, "vmax": vmax,
-                                  "iter": O.iter, "wall_s": time.time() - wall0, "cpu_s": time.process_time() - cpu0})
+                                  "iter": O.iter, "wall_s": time.time() - wall0, "cpu_s": time.process_time() - cpu0,
+                                  "elastic_J": law.elasticEnergy()})
             last_save = time.time()
         motion.check_floor(preset["depth"])
         if O.iter % report < GUARD_EVERY or O.iter >= n_end:

@@ -77,3 +77,12 @@ def test_bench_presets_refuses_a_reference_it_has_no_holes_of(capsys):
     code = cli.main(["bench", "presets", "--against", "nonesuch"])
     err = capsys.readouterr().err
     assert code == 2 and "--against = 'nonesuch'" in err and "allowed" in err and "Traceback" not in err, err
+
+
+def test_bench_speed_vs_error_names_the_tables_it_needs(tmp_path, capsys):
+    """Without presets.csv and convergence.csv it says which commands make them, writes nothing, exits 1."""
+    from analysis import cli
+    code = cli.main(["bench", "speed-vs-error", "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 1 and "./holes bench presets" in err and "./holes bench convergence" in err, err
+    assert list(tmp_path.iterdir()) == []

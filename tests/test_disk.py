@@ -1,5 +1,6 @@
 """The rolling punch disk with press sleeves (issue 4), on a tiny strip; each scene is its own YADE process."""
 import json
+import re
 import math
 import subprocess
 import sys
@@ -272,3 +273,30 @@ def test_a_killed_run_goes_on_from_its_checkpoint(scene_dirs, tmp_path):
     assert after.sum() > 0
     force_a, force_b = a[after].punch_fz_n.to_numpy(), b[after].punch_fz_n.to_numpy()
     assert np.allclose(force_b, force_a, rtol=0.01, atol=1.0), (force_a, force_b)
+
+
+@pytest.mark.scene
+def test_a_killed_sleeping_run_goes_on_from_its_checkpoint(scene_dirs, tmp_path):
+    """A run with a sleeping far field (`--awake`, the validation presets' way) killed after a checkpoint resumes
+    and finishes: its window moves at once on resuming, before any step has run (YADE's contact law knows its
+    scene only after a step: asking it for the stored energy there crashed the process), the steps are the
+    planned ones, and the energy balance closes with the window's jumps booked."""
+    runs = tmp_path / "runs"
+    cmd = [sys.executable, str(ROOT / "scripts/disk.py"), "--preset", "test", "--out", str(runs),
+           "--bed-dir", str(scene_dirs[1]), *COARSE_ONE_HOLE, "--awake", "60,120", "--checkpoint-every", "1"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    t0 = time.time()
+    while not list(runs.glob("*/checkpoint.json")) and proc.poll() is None and time.time() - t0 < 600:
+        time.sleep(0.1)
+    proc.kill()
+    proc.wait()
+    assert list(runs.glob("*/checkpoint.json")), "no checkpoint was written"
+    r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=1500)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "resumed at step " in r.stderr
+    summary = json.loads(r.stdout.strip().splitlines()[-1])
+    planned = int(re.search(r"(\d+) steps of ", r.stderr).group(1))
+    assert summary["steps"] == planned
+    e = summary["energy_J"]
+    assert summary["awake"]["moves"] > 0 and math.isfinite(e["window"]), summary["awake"]
+    assert abs(e["residual_fraction"]) < 0.03, e

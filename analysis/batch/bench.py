@@ -485,10 +485,13 @@ def run_convergence(workers: int, threads: int, runs_dir=None, bed_dir=None, out
 # and the reference preset's grain's from r = 3 mm on the convergence strip (convergence.csv: clay only, so taken
 # for every soil), their 95 % half-widths added in quadrature. Judged by the presets' goal: |shift| within GOAL_PCT
 # of the field mean.
-def speed_vs_error(presets: pd.DataFrame, summary: pd.DataFrame, ladder: pd.DataFrame, radius_mm: float) -> pd.DataFrame:
+def speed_vs_error(presets: pd.DataFrame, summary: pd.DataFrame, ladder: pd.DataFrame, radius_mm: float,
+                   own_radius: dict | None = None) -> pd.DataFrame:
     """One row per preset (the reference preset, radius `radius_mm`, and the candidates of `presets`), soil and
     metric: the two shifts, their sum `shift` with `shift_lo`/`shift_hi`, `error_pct` (|shift| / field mean),
-    `resolved`, `within_goal`, and the preset's cost per measured hole (`summary`, presets_summary.csv).
+    `resolved`, `within_goal`, and the preset's cost per measured hole (`summary`, presets_summary.csv). Beside it,
+    `direct_shift`: the ladder's own shift at the preset's grain (`own_radius`: preset -> mm, for one-size grains on
+    the ladder), the same question asked on the convergence strip alone.
 
     >>> p = pd.DataFrame({"preset": ["a"], "reference": ["ref"], "soil": ["loam"], "metric": ["L2"], "field_mean": [50.0],
     ...                   "reference_mean": [40.0], "shift": [3.0], "shift_lo": [0.0], "shift_hi": [6.0]})
@@ -521,6 +524,8 @@ def speed_vs_error(presets: pd.DataFrame, summary: pd.DataFrame, ladder: pd.Data
     cost = summary.set_index("preset")
     for c in ("cpu_s_per_measured_hole", "wall_s_per_measured_hole"):
         t[c] = t.preset.map(cost[c])
+    direct = ladder.set_index(["radius_mm", "metric"])["shift"]
+    t["direct_shift"] = [direct.get(((own_radius or {}).get(p), m), np.nan) for p, m in zip(t.preset, t.metric)]
     t["reference"] = f"r = {ladder.radius_mm.min():g} mm (convergence.csv) via {reference}"
     return t.reset_index(drop=True)
 
@@ -542,14 +547,21 @@ def run_speed_vs_error(out=None) -> int:
         print(f"bench speed-vs-error: the reference preset {reference!r} has r = {radius:g} mm grains, not on the "
               f"convergence ladder (r = {', '.join(f'{r:g}' for r in sorted(set(ladder.radius_mm)))} mm)", file=sys.stderr)
         return 1
-    t = speed_vs_error(presets, summary, ladder, radius)
+    own = {}
+    for p in set(presets.preset) | {reference}:
+        res = load_resolution(load_preset(p).resolution)
+        own[p] = None if res.graded else 1000 * res.radius
+    t = speed_vs_error(presets, summary, ladder, radius, own)
     t["machine"] = machine()
     s = pd.DataFrame([{"preset": p, "resolution": load_preset(p).resolution,
                        "cpu_s_per_measured_hole": g.cpu_s_per_measured_hole.iloc[0],
                        "wall_s_per_measured_hole": g.wall_s_per_measured_hole.iloc[0],
                        "mean_error_pct": round(g.error_pct.mean(), 1), "max_error_pct": round(g.error_pct.max(), 1),
                        "within_goal": f"{int(g.within_goal.sum())}/{len(g)}", "resolved": int(g.resolved.sum()),
-                       "max_error_cell": "{} {}".format(*g.loc[g.error_pct.idxmax(), ["soil", "metric"]])}
+                       "max_error_cell": "{} {}".format(*g.loc[g.error_pct.idxmax(), ["soil", "metric"]]),
+                       # the convergence strip's own shift at this grain, clay (empty for a grain not on the ladder)
+                       "direct_mean_error_pct": round(100 * (g.direct_shift.abs() / g.field_mean)[g.soil == "clay"].mean(), 1),
+                       "direct_max_error_pct": round(100 * (g.direct_shift.abs() / g.field_mean)[g.soil == "clay"].max(), 1)}
                       for p, g in t.groupby("preset", sort=False)])
     note = stamp("./holes bench speed-vs-error")
     atomic_csv(t.round(3), out / "speed_vs_error.csv", note)

@@ -40,8 +40,9 @@ def zones(res, L: float, W: float, D: float) -> list:
     fine zone, then the coarse boxes under and beside it (Resolution). The top ones reach 1.12 D: the levelling's
     margin."""
     (y0, y1), zf, top = res.fine_band(W), D - res.fine_depth, 1.12 * D
-    return [((0, y0, zf), (L, y1, top), res.radius), ((0, 0, 0), (L, W, zf), res.coarse_radius),
-            ((0, 0, zf), (L, y0, top), res.coarse_radius), ((0, y1, zf), (L, W, top), res.coarse_radius)]
+    boxes = [((0, y0, zf), (L, y1, top), res.radius), ((0, 0, 0), (L, W, zf), res.coarse_radius),
+             ((0, 0, zf), (L, y0, top), res.coarse_radius), ((0, y1, zf), (L, W, top), res.coarse_radius)]
+    return [b for b in boxes if b[1][1] > b[0][1]]      # a fine zone across the whole width has no sides
 
 
 def check_graded(res, size, lateral: str):
@@ -53,11 +54,12 @@ def check_graded(res, size, lateral: str):
         raise ConfigError(f"resolution = {res.name!r} is graded: allowed with lateral = 'walls' only (its coarse "
                           "sides would be periodic images of each other)")
     room = 2 * res.coarse_radius * (1 + res.spread)
-    if res.fine_width > W - 2 * room or res.fine_depth > D - room:
+    side = (W - res.fine_width) / 2     # <= 0: the fine zone spans the width, coarse grains under it only
+    if 0 < side < room or res.fine_depth > D - room:
         raise ConfigError(f"resolution {res.name!r}: fine_width = {1000 * res.fine_width:g} mm and fine_depth = "
                           f"{1000 * res.fine_depth:g} mm are out of range for a {1000 * W:g} x {1000 * D:g} mm section: "
-                          f"allowed up to {1000 * (W - 2 * room):g} and {1000 * (D - room):g} mm (a coarse grain beside "
-                          "and under the fine zone)")
+                          f"allowed up to {1000 * (W - 2 * room):g} (or the whole width) and {1000 * (D - room):g} mm (a "
+                          "coarse grain beside and under the fine zone)")
 
 
 TILES = Field(1, 4, kind=int, meaning="copies of the periodic bed along its length and its width")

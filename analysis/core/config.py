@@ -591,8 +591,10 @@ class Resolution:
         return radius <= self.radius * (1 + self.spread) * (1 + 1e-9)
 
     def fine_band(self, width: float) -> tuple[float, float]:
-        """(y_lo, y_hi), m: the fine zone across a strip `width` m wide, centred on the punches' path."""
-        return (width - self.fine_width) / 2, (width + self.fine_width) / 2
+        """(y_lo, y_hi), m: the fine zone across a strip `width` m wide, centred on the punches' path (at most the
+        strip's width)."""
+        w = min(self.fine_width, width)
+        return (width - w) / 2, (width + w) / 2
 
 
 def load_resolution(name: str, path="configs/resolutions.toml") -> Resolution:
