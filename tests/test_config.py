@@ -116,7 +116,7 @@ def test_bad_graded_resolution_is_refused(tmp_path):
     with pytest.raises(ConfigError, match=r"fine_width = 100 mm and fine_depth = 80 mm are out of range for a "
                                           r"120 x 120 mm section: allowed up to 80 \(or the whole width\) and 100 mm"):
         plan("clay", "graded", resolution="graded", width=120)
-    assert plan("clay", "graded", resolution="medium_floor", width=120)["graded"]["fine_width"] == 1.0  # no sides
+    assert plan("clay", "graded", resolution="medium_floor", width=120, depth=140)["graded"]["fine_width"] == 1.0  # no sides
     with pytest.raises(ConfigError, match=r"allowed with lateral = 'walls' only"):
         plan("clay", "graded", resolution="graded", lateral="periodic")
 
