@@ -353,6 +353,22 @@ def preset_summary(errors: pd.DataFrame, costs: pd.DataFrame) -> pd.DataFrame:
                          for preset, g in errors.groupby("preset", sort=False)])
 
 
+def cost_against_error(ax, summary: pd.DataFrame, what: str, reference: str | None = None):
+    """Each preset of `summary` at its CPU time per measured hole and its mean error (bar up to its largest), with
+    the goal's line; the reference preset black, the others in matplotlib's colour cycle, in order."""
+    others = iter(range(len(summary)))
+    for r in summary.itertuples():
+        ax.errorbar(r.cpu_s_per_measured_hole, r.mean_error_pct, yerr=[[0], [r.max_error_pct - r.mean_error_pct]],
+                    fmt="o", capsize=3, color="k" if r.preset == reference else f"C{next(others)}")
+        ax.annotate(r.preset, (r.cpu_s_per_measured_hole, r.mean_error_pct), fontsize=8, xytext=(4, 4),
+                    textcoords="offset points")
+    ax.axhline(GOAL_PCT, color="g", ls="--", lw=1, label=f"goal {GOAL_PCT:g} % of the field mean")
+    ax.set_xscale("log")
+    ax.set_xlabel("CPU time per measured hole, s (one thread per run)")
+    ax.set_ylabel(f"{what}, % of the field mean\n(mean over soils and metrics; bar to the largest)")
+    ax.grid(alpha=0.3)
+
+
 def run_presets(reference: str = "validation_surface", out=None, comparison_dir=None) -> int:
     """`./holes bench presets`: every preset in results/comparison.csv that runs the reference's calibrated machine
     set against the reference (preset_errors), with its cost per measured hole from its kept runs' summaries
@@ -388,17 +404,8 @@ def run_presets(reference: str = "validation_surface", out=None, comparison_dir=
     atomic_csv(summary, out / "presets_summary.csv", note)
     fig, axes = pyplot().subplots(1, 2, figsize=(13, 5))
     ax = axes[0]
-    for r in summary.itertuples():
-        e = 0.0 if r.preset == reference else r.mean_error_pct
-        hi = 0.0 if r.preset == reference else r.max_error_pct - e
-        ax.errorbar(r.cpu_s_per_measured_hole, e, yerr=[[0], [hi]], fmt="o", capsize=3)
-        ax.annotate(r.preset, (r.cpu_s_per_measured_hole, e), fontsize=8, xytext=(4, 4), textcoords="offset points")
-    ax.axhline(GOAL_PCT, color="g", ls="--", lw=1, label=f"goal {GOAL_PCT:g} %")
+    cost_against_error(ax, summary.fillna({"mean_error_pct": 0.0, "max_error_pct": 0.0}), "|shift|", reference)
     ax.axhline(FIT_PCT, color="r", ls=":", lw=1, label=f"validation tolerance {FIT_PCT:g} %")
-    ax.set_xscale("log")
-    ax.set_xlabel("CPU time per measured hole, s (one thread per run)")
-    ax.set_ylabel("|shift|, % of the field mean\n(mean over soils and metrics; bar to the largest)")
-    ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     ax = axes[1]
     cells = [(s, m) for s in errors.soil.unique() for m in VALIDATED]
@@ -567,17 +574,8 @@ def run_speed_vs_error(out=None) -> int:
     atomic_csv(t.round(3), out / "speed_vs_error.csv", note)
     atomic_csv(s, out / "speed_vs_error_summary.csv", note)
     fig, ax = pyplot().subplots(figsize=(8, 5))
-    for r in s.itertuples():
-        ax.errorbar(r.cpu_s_per_measured_hole, r.mean_error_pct, yerr=[[0], [r.max_error_pct - r.mean_error_pct]],
-                    fmt="o", capsize=3)
-        ax.annotate(r.preset, (r.cpu_s_per_measured_hole, r.mean_error_pct), fontsize=8, xytext=(4, 4),
-                    textcoords="offset points")
-    ax.axhline(GOAL_PCT, color="g", ls="--", lw=1, label=f"goal: {GOAL_PCT:g} % of the field mean")
+    cost_against_error(ax, s, "|shift| from r = 3 mm grains")
     ax.axvline(120, color="g", ls=":", lw=1, label="goal: 60 s of a 2-core machine per hole (120 s of CPU)")
-    ax.set_xscale("log")
-    ax.set_xlabel("CPU time per measured hole, s (one thread per run)")
-    ax.set_ylabel("|shift| from r = 3 mm grains, % of the field mean\n(mean over soils and metrics; bar to the largest)")
-    ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     save(fig, out / "speed_vs_error.png", f"presets against converged grains (r = 3 mm) via {reference}\n{note}")
     print(s.to_string(index=False))
