@@ -287,10 +287,9 @@ class AwakeWindow:
         """The grains awake now, from the masks (a resumed run's sleepers were saved with it)."""
         from yade import O
         self.n_awake = sum(1 for i in self.grain_ids if O.bodies[i].mask != SLEEP_MASK)
-        if SKIP_SLEEPERS:
-            for i in self.grain_ids:
-                O.bodies[i].subdomain = 1 if O.bodies[i].mask == SLEEP_MASK else 0
-            refresh_body_lists()
+        for i in self.grain_ids:            # a saved scene's subdomains follow this process's SKIP_SLEEPERS
+            O.bodies[i].subdomain = 1 if SKIP_SLEEPERS and O.bodies[i].mask == SLEEP_MASK else 0
+        refresh_body_lists()
 
     def due(self) -> bool:
         from yade import O
