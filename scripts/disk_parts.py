@@ -60,6 +60,7 @@ SLEEP_MASK = GRAIN_MASK | 0b1000   # a sleeping grain (awake window): meets awak
 # sleeper is still in the collider and in every contact, but no longer visited at every step for nothing. The same
 # grains bit for bit on one thread (tests/test_disk.py); HOLES_VISIT_SLEEPERS=1 visits them, for that test.
 SKIP_SLEEPERS = not os.environ.get("HOLES_VISIT_SLEEPERS")
+SLEEP_SUBDOMAIN = 1 if SKIP_SLEEPERS else 0
 AVOID_SELF = TOOL_SELF | 0b1000    # the collider's avoidSelfInteractionMask: tool parts, and sleepers, meet no kin
 WINDOW_STEP = 5.0           # mm of the axis's travel between moves of the awake window
 RESTLESS = 0.02             # × the tip speed: a grain behind the window sleeps only when slower than this
@@ -275,10 +276,6 @@ class AwakeWindow:
         self.reach_x = (math.sqrt(max(disk.R ** 2 - lay.H0 ** 2, 0.0)) + disk.d) * MM
         # the window's last position (m), its moves, their energy jumps (J) and wall time (s), the grain-steps
         # awake, and the fastest grain put to sleep behind and ahead of it (m/s)
-        # (step, the contacts' elastic energy, J) where a checkpoint was saved: a move at that step, before any has
-        # run since loading, reads it there (YADE's law functor knows its scene only once a step has run: asking it
-        # before crashes)
-        self.elastic_at_load = None
         self.state = {"window_x": -math.inf, "moves": 0, "window_energy": 0.0, "window_s": 0.0, "awake_steps": 0.0,
                       "slept_vmax": 0.0, "front_vmax": 0.0}
         self.count_awake()
@@ -288,21 +285,21 @@ class AwakeWindow:
         from yade import O
         self.n_awake = sum(1 for i in self.grain_ids if O.bodies[i].mask != SLEEP_MASK)
         for i in self.grain_ids:            # a saved scene's subdomains follow this process's SKIP_SLEEPERS
-            O.bodies[i].subdomain = 1 if SKIP_SLEEPERS and O.bodies[i].mask == SLEEP_MASK else 0
+            O.bodies[i].subdomain = SLEEP_SUBDOMAIN if O.bodies[i].mask == SLEEP_MASK else 0
         refresh_body_lists()
 
     def due(self) -> bool:
         from yade import O
         return (self.motion.v * O.time + self.motion.axis0[0] - self.state["window_x"]) >= WINDOW_STEP * MM
 
-    def move(self):
+    def move(self, elastic_now: float | None = None):
         """Wake the grains within the window round the axis, put to sleep those ahead of it and the settled ones
-        behind it (sleep_outside); one step then makes the new contacts."""
+        behind it (sleep_outside); one step then makes the new contacts. `elastic_now`: the contacts' elastic energy
+        (J) where YADE cannot be asked for it (a resumed run's first move, before any step)."""
         from yade import O
         st = self.state
         x, t0 = self.motion.axis0[0] + self.motion.v * O.time, time.time()
-        loaded = self.elastic_at_load
-        e0 = loaded[1] if loaded and loaded[0] == O.iter else self.law.elasticEnergy()
+        e0 = self.law.elasticEnergy() if elastic_now is None else elastic_now
         woke, slept, lost, v_rear, v_front = sleep_outside(self.grain_ids, x - self.reach_x - self.behind * MM,
                                                            x + self.reach_x + self.ahead * MM, self.detector,
                                                            self.restless)
@@ -346,9 +343,7 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
         x = b.state.pos[0]
         if b.mask == SLEEP_MASK:
             if x_rear <= x <= x_front:
-                b.dynamic, b.mask = True, GRAIN_MASK
-                if SKIP_SLEEPERS:
-                    b.subdomain = 0
+                b.dynamic, b.mask, b.subdomain = True, GRAIN_MASK, 0
                 woke += 1
             continue
         if x_rear <= x <= x_front:
@@ -363,9 +358,7 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
         w = b.state.angVel
         lost += 0.5 * b.state.mass * speed ** 2 + 0.5 * sum(b.state.inertia[j] * w[j] ** 2 for j in range(3))
         b.state.vel, b.state.angVel = Vector3(0, 0, 0), Vector3(0, 0, 0)
-        b.dynamic, b.mask = False, SLEEP_MASK
-        if SKIP_SLEEPERS:
-            b.subdomain = 1
+        b.dynamic, b.mask, b.subdomain = False, SLEEP_MASK, SLEEP_SUBDOMAIN
         slept += 1
         for I in O.interactions.withBodyAll(i):
             other = I.id2 if I.id1 == i else I.id1
@@ -374,8 +367,7 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
     if slept:       # erase only resets a pair to potential, which becomes real again while the bounds overlap: the
         O.interactions.eraseNonReal()   # pairs go, and the full sort below makes the potential ones it may again
     if woke or slept:
-        if SKIP_SLEEPERS:
-            refresh_body_lists()
+        refresh_body_lists()
         collider.doSort = True
         collider()
     return woke, slept, lost, v_rear, v_front
@@ -542,8 +534,9 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
             raise RuntimeError(f"{out / CHECKPOINT} has no elastic_J (saved before sleeping runs could resume); run "
                                "again with --rerun")
         window.state.update(ck["window"])
-        window.elastic_at_load = (ck["iter"], ck["elastic_J"])
-        window.move()                       # set where it stands now, before any step: every resume takes this path
+        # set where it stands now, before any step (every resume takes this path), from the stored energy saved
+        # with the checkpoint: YADE's contact law knows its scene only once a step has run, and asking it crashes
+        window.move(elastic_now=ck["elastic_J"])
 
     if not resumed:
         O.run(1, True)                      # the bed's contacts exist from here on: the balance starts here

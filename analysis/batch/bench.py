@@ -549,26 +549,25 @@ def run_speed_vs_error(out=None) -> int:
         return 1
     presets, summary, ladder = (read_table(p) for p in need)
     reference = presets.reference.iloc[0]
-    radius = 1000 * load_resolution(load_preset(reference).resolution).radius
-    if radius not in set(ladder.radius_mm):
-        print(f"bench speed-vs-error: the reference preset {reference!r} has r = {radius:g} mm grains, not on the "
-              f"convergence ladder (r = {', '.join(f'{r:g}' for r in sorted(set(ladder.radius_mm)))} mm)", file=sys.stderr)
+    resolution = {p: load_preset(p).resolution for p in {*presets.preset, reference}}
+    own = {p: None if load_resolution(r).graded else 1000 * load_resolution(r).radius for p, r in resolution.items()}
+    if own[reference] not in set(ladder.radius_mm):
+        print(f"bench speed-vs-error: the reference preset {reference!r} has {resolution[reference]!r} grains, not on "
+              f"the convergence ladder (r = {', '.join(f'{r:g}' for r in sorted(set(ladder.radius_mm)))} mm, one size)",
+              file=sys.stderr)
         return 1
-    own = {}
-    for p in set(presets.preset) | {reference}:
-        res = load_resolution(load_preset(p).resolution)
-        own[p] = None if res.graded else 1000 * res.radius
-    t = speed_vs_error(presets, summary, ladder, radius, own)
+    t = speed_vs_error(presets, summary, ladder, own[reference], own)
     t["machine"] = machine()
-    s = pd.DataFrame([{"preset": p, "resolution": load_preset(p).resolution,
+    direct_pct = (100 * t.direct_shift.abs() / t.field_mean).where(t.soil == "clay")   # the ladder is clay's
+    s = pd.DataFrame([{"preset": p, "resolution": resolution[p],
                        "cpu_s_per_measured_hole": g.cpu_s_per_measured_hole.iloc[0],
                        "wall_s_per_measured_hole": g.wall_s_per_measured_hole.iloc[0],
                        "mean_error_pct": round(g.error_pct.mean(), 1), "max_error_pct": round(g.error_pct.max(), 1),
                        "within_goal": f"{int(g.within_goal.sum())}/{len(g)}", "resolved": int(g.resolved.sum()),
                        "max_error_cell": "{} {}".format(*g.loc[g.error_pct.idxmax(), ["soil", "metric"]]),
                        # the convergence strip's own shift at this grain, clay (empty for a grain not on the ladder)
-                       "direct_mean_error_pct": round(100 * (g.direct_shift.abs() / g.field_mean)[g.soil == "clay"].mean(), 1),
-                       "direct_max_error_pct": round(100 * (g.direct_shift.abs() / g.field_mean)[g.soil == "clay"].max(), 1)}
+                       "direct_mean_error_pct": round(direct_pct[g.index].mean(), 1),
+                       "direct_max_error_pct": round(direct_pct[g.index].max(), 1)}
                       for p, g in t.groupby("preset", sort=False)])
     note = stamp("./holes bench speed-vs-error")
     atomic_csv(t.round(3), out / "speed_vs_error.csv", note)
