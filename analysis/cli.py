@@ -187,7 +187,9 @@ def cmd_bench(args) -> int:
             print(f"bench {args.what}: give --run results/runs/<id>, a run with a checkpoint", file=sys.stderr)
             return 2
         return run_scene("collider_bench.py", [args.run, "--steps", str(args.steps), "--threads", str(args.threads or 2),
-                                               *(["--profile"] if args.what == "profile" else [])])
+                                               *(["--profile"] if args.what == "profile" else []),
+                                               *(["--from-start"] if args.from_start else []),
+                                               *(["--bed-dir", args.bed_dir] if args.bed_dir else [])])
     if args.what == "presets":
         from analysis.batch import bench
         try:
@@ -386,6 +388,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "results/comparison.csv with its calibrated machine is set against it")
     p.add_argument("--run", help="collider, profile: a run folder with a checkpoint")
     p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000, help="collider, profile: steps per setting (default 3000)")
+    p.add_argument("--from-start", action="store_true",
+                   help="collider, profile: the run's first --steps from its bed (any run's folder), not its checkpoint")
     scene_batch_options(p, "ladder, economies, convergence, presets, speed-vs-error: table folder (default "
                         "results/bench; ladder: results/bench/ladder)")
     p.add_argument("--no-run", action="store_true",

@@ -15,7 +15,9 @@ runs, interactions and real contacts at the end, the grains' drift from the firs
 largest, mm), and the share of the wall time each part of the scene took (YADE's `O.timingEnabled`: the
 collider, the contact loop, Newton's integration with the force reset, the disk's Python hook, the tools'
 kinematic engines; the rest is the stability guard and YADE's loop). With `--profile` only the adopted setting
-runs, once: where a run's time goes (`./holes bench profile`, results/bench/profile.csv, one row per run given).
+runs, once: where a run's time goes (`./holes bench profile`, results/bench/profile.csv, one row per run, starting
+step and sleepers' treatment). With `--from-start` the segment is the run's first `steps` from its committed bed
+(only config.json is needed: a kept run of results/comparison/runs/ will do), the lead-in with it.
 """
 from __future__ import annotations
 
@@ -54,25 +56,28 @@ def main(argv=None) -> int:
     p.add_argument("--out", default=None, help="table (default results/bench/collider.csv; --profile: profile.csv, "
                    "its rows of other runs kept)")
     p.add_argument("--profile", action="store_true", help="the adopted setting only, once: where the run's time goes")
+    p.add_argument("--from-start", action="store_true", help="the run's first steps from its bed, not its checkpoint")
+    p.add_argument("--bed-dir", default=str(ROOT / "results/beds"), help="--from-start: the beds (default results/beds)")
     a = p.parse_args(argv)
     a.out = a.out or str(ROOT / "results/bench" / ("profile.csv" if a.profile else "collider.csv"))
     settings = [SETTINGS[ADOPTED]] if a.profile else SETTINGS
     run = Path(a.run)
-    if not (run / disk.CHECKPOINT).exists() or not (run / "config.json").exists():
-        print(f"bench collider: {run} has no checkpoint.json and config.json: give a run stopped while running",
-              file=sys.stderr)
+    needs = ("config.json",) if a.from_start else (disk.CHECKPOINT, "config.json")
+    if not all((run / f).exists() for f in needs):
+        print(f"bench collider: {run} has no {' and '.join(needs)}: give a run stopped while running"
+              + (" or any run's folder" if a.from_start else "") + "", file=sys.stderr)
         return 2
     params = json.loads((run / "config.json").read_text())
-    ck = json.loads((run / disk.CHECKPOINT).read_text())
+    ck = {"iter": 0, "scene": None} if a.from_start else json.loads((run / disk.CHECKPOINT).read_text())
     rows, ref = [], None
     with tempfile.TemporaryDirectory(prefix="collider-bench-") as scratch:
         for k, (name, attrs) in enumerate(settings):
             folder = Path(scratch) / str(k) / params["id"]
             folder.mkdir(parents=True)
-            for f in (disk.CHECKPOINT, ck["scene"]):
+            for f in () if a.from_start else (disk.CHECKPOINT, ck["scene"]):
                 shutil.copy(run / f, folder / f)
             print(f"bench collider: {name}, {a.steps} steps from step {ck['iter']}", file=sys.stderr, flush=True)
-            seg = disk.run(params, a.threads, folder.parent, checkpoint_every=0, quiet=True,
+            seg = disk.run(params, a.threads, folder.parent, bed_dir=Path(a.bed_dir), checkpoint_every=0, quiet=True,
                                 stop_at=ck["iter"] + a.steps, collider=attrs)
             pos, engine_s = seg.pop("pos"), seg.pop("engine_s")
             share = {part: sum(t for name, t in engine_s.items() if PARTS.get(name, "kinematics") == part) / seg["wall_s"]
@@ -88,15 +93,19 @@ def main(argv=None) -> int:
                          "contacts": seg["contacts"], "awake": seg["awake"], "drift_rms_mm": round(float(np.sqrt(np.mean(drift ** 2))), 4),
                          "drift_max_mm": round(float(drift.max()), 3),
                          **{f"share_{part}": round(v, 3) for part, v in share.items()},
+                         "sleepers": "skipped" if disk.SKIP_SLEEPERS else "visited",
                          "threads": a.threads, "machine": machine()})
             print(pd.DataFrame(rows[-1:]).to_string(index=False), file=sys.stderr, flush=True)
     table = pd.DataFrame(rows)
-    if a.profile and Path(a.out).exists():       # one row per run profiled: the others' rows stay
+    key = ["run", "from_step", "sleepers"]
+    if a.profile and Path(a.out).exists():       # one row per run, start and sleepers profiled: the others stay
         earlier = read_table(a.out)
-        table = pd.concat([earlier[earlier.run != params["id"]], table], ignore_index=True)
+        again = earlier[key].apply(tuple, axis=1).isin(table[key].apply(tuple, axis=1))
+        table = pd.concat([earlier[~again], table], ignore_index=True)
     what = "profile" if a.profile else "collider"
-    atomic_csv(table, Path(a.out), stamp(f"./holes bench {what} --run {a.run} --steps {a.steps}") +
-               f"; run {params['id']}")
+    atomic_csv(table, Path(a.out), stamp(f"./holes bench {what} --run {a.run} --steps {a.steps}"
+                                         + (" --from-start" if a.from_start else "")) +
+               f"; run {params['id']}" + ("; the other rows kept from before" if a.profile else ""))
     print(table.to_string(index=False))
     return 0
 

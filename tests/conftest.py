@@ -36,13 +36,14 @@ def scene_dirs(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def side_scenes(scene_dirs):
-    """test_disk's one-thread scenes (SIDE_SCENES) and then test_duckbeak's, one after another on a background
-    thread from the first test that asks: test_compare asks, so they run on the core its one-thread clay scene
-    leaves idle. Name -> future of the finished process (a failed scene is the asking test's failure, not this
-    fixture's)."""
+    """test_disk's one-thread scenes (SIDE_SCENES) and then test_duckbeak's, two at a time on background
+    threads from the first test that asks: test_compare asks, and its one-thread clay scene shares the cores with
+    them; once it has finished, the tests after it wait on these, so both cores stay busy (one at a time, the
+    suite left a core idle for four minutes). Name -> future of the finished process (a failed scene is the asking
+    test's failure, not this fixture's)."""
     from tests.test_disk import SIDE_SCENES, run_scene
     from tests.test_duckbeak import run_duckbeak
-    pool = ThreadPoolExecutor(max_workers=1)
+    pool = ThreadPoolExecutor(max_workers=2)
     futures = {name: pool.submit(run_scene, None, *args, dirs=scene_dirs, expect_ok=ok)
                for name, (args, ok) in SIDE_SCENES.items()}
     futures["duckbeak"] = pool.submit(run_duckbeak, scene_dirs)

@@ -258,6 +258,19 @@ def test_a_killed_run_goes_on_from_its_checkpoint(scene_dirs, tmp_path):
     # the first setting's repeat (one thread) is the same run bit for bit; 200 steps: grains barely move
     assert (segments.drift_max_mm.iloc[:2] == 0).all() and (segments.drift_max_mm < 5).all()
     assert json.loads((folder / "checkpoint.json").read_text()) == ck and not (folder / "summary.json").exists()
+    # the profile of the run's first steps from its bed, each treatment of the sleepers its own row; a repeat
+    # replaces its row
+    profile = tmp_path / "profile.csv"
+    for visit in ("", "1", ""):
+        env = {k: v for k, v in os.environ.items() if k != "HOLES_VISIT_SLEEPERS"} | (
+            {"HOLES_VISIT_SLEEPERS": visit} if visit else {})
+        p = subprocess.run([sys.executable, str(ROOT / "scripts/collider_bench.py"), str(folder), "--profile",
+                            "--from-start", "--bed-dir", str(scene_dirs[1]), "--steps", "200", "--threads", "1",
+                            "--out", str(profile)], cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+        assert p.returncode == 0, p.stderr[-3000:]
+    rows = pd.read_csv(profile, comment="#")
+    assert sorted(rows.sleepers) == ["skipped", "visited"] and (rows.from_step == 0).all(), rows
+    assert ((rows.steps > 150) & (rows.steps <= 200)).all() and (rows.share_contacts > 0).all()
     r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=1500)
     assert r.returncode == 0, r.stderr[-3000:]
     resumed_at = int(r.stderr.split("resumed at step ")[1].split()[0])
