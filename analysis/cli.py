@@ -184,7 +184,8 @@ def cmd_bench(args) -> int:
         return run_scene("peer.py", [])
     if args.what in ("collider", "profile"):
         if not args.run:
-            print(f"bench {args.what}: give --run results/runs/<id>, a run with a checkpoint", file=sys.stderr)
+            print(f"bench {args.what}: give --run results/runs/<id>, a run with a checkpoint (with --from-start, any run's "
+                  "folder)", file=sys.stderr)
             return 2
         return run_scene("collider_bench.py", [args.run, "--steps", str(args.steps), "--threads", str(args.threads or 2),
                                                *(["--profile"] if args.what == "profile" else []),

@@ -65,20 +65,21 @@ def main(argv=None) -> int:
     needs = ("config.json",) if a.from_start else (disk.CHECKPOINT, "config.json")
     if not all((run / f).exists() for f in needs):
         print(f"bench collider: {run} has no {' and '.join(needs)}: give a run stopped while running"
-              + (" or any run's folder" if a.from_start else "") + "", file=sys.stderr)
+              + (" or any run's folder" if a.from_start else ""), file=sys.stderr)
         return 2
     params = json.loads((run / "config.json").read_text())
-    ck = {"iter": 0, "scene": None} if a.from_start else json.loads((run / disk.CHECKPOINT).read_text())
+    ck = None if a.from_start else json.loads((run / disk.CHECKPOINT).read_text())
+    start, copies = (0, ()) if ck is None else (ck["iter"], (disk.CHECKPOINT, ck["scene"]))
     rows, ref = [], None
     with tempfile.TemporaryDirectory(prefix="collider-bench-") as scratch:
         for k, (name, attrs) in enumerate(settings):
             folder = Path(scratch) / str(k) / params["id"]
             folder.mkdir(parents=True)
-            for f in () if a.from_start else (disk.CHECKPOINT, ck["scene"]):
+            for f in copies:
                 shutil.copy(run / f, folder / f)
-            print(f"bench collider: {name}, {a.steps} steps from step {ck['iter']}", file=sys.stderr, flush=True)
+            print(f"bench collider: {name}, {a.steps} steps from step {start}", file=sys.stderr, flush=True)
             seg = disk.run(params, a.threads, folder.parent, bed_dir=Path(a.bed_dir), checkpoint_every=0, quiet=True,
-                                stop_at=ck["iter"] + a.steps, collider=attrs)
+                                stop_at=start + a.steps, collider=attrs)
             pos, engine_s = seg.pop("pos"), seg.pop("engine_s")
             share = {part: sum(t for name, t in engine_s.items() if PARTS.get(name, "kinematics") == part) / seg["wall_s"]
                      for part in ("collider", "contacts", "integration", "hook", "kinematics")}
@@ -86,7 +87,7 @@ def main(argv=None) -> int:
             drift = 1e3 * np.linalg.norm(pos - ref, axis=1)
             rows.append({"run": params["id"], "preset": params["preset"]["name"], "setting": name,
                          **{f"collider_{key}": v for key, v in attrs.items()},
-                         "from_step": ck["iter"], "steps": seg["steps"], "particles": seg["particles"],
+                         "from_step": start, "steps": seg["steps"], "particles": seg["particles"],
                          "wall_s": round(seg["wall_s"], 1),
                          "particle_steps_per_s": round(seg["particles"] * seg["steps"] / seg["wall_s"]),
                          "detections": seg["detections"], "interactions": seg["interactions"],
