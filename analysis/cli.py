@@ -76,15 +76,22 @@ def cmd_measure(args) -> int:
     return 0
 
 
+def cmd_metrology_band(args) -> int:
+    from analysis.holes import metrology_band
+    band = metrology_band.run()
+    print(band.round(1).to_string(index=False))
+    return 0
+
+
 def cmd_rings(args) -> int:
     from analysis.holes import rings
-    table, cuts = rings.run(args.folders, Path(args.out))
+    table, levels = rings.run(args.folders, Path(args.out))
     inner = table[(table.r >= table.band_lo) & (table.r <= table.band_hi)]
     print(inner.groupby(["run", "hole"], sort=False)[["h1", "plate_depth", "depth"]]
           .agg({"h1": "first", "plate_depth": "first", "depth": ["min", "max"]}).round(1).to_string())
-    print("L0, L1, L2 (mm) moved by the opening's cut going from 0.5 to 1.5 probe radii below -h1:")
-    print(rings.cut_slopes(cuts).round(1).to_string(index=False))
-    print(f"wrote {args.out}/rings.csv, rings.png, cut.csv")
+    print("L0, L1 (mm) and L0's split at each level below -h1, per soil:")
+    print(rings.level_summary(levels).round(1).to_string(index=False))
+    print(f"wrote {args.out}/rings.csv, rings.png, levels.csv, levels_summary.csv, levels-<soil>.png")
     return 0
 
 
@@ -337,6 +344,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("measure", help="measure the holes of finished runs (L0, L1, L2, h1, C; seed 001 §4.2)")
     p.add_argument("folders", nargs="+", type=run_folder, help="results/runs/<id> ...")
     p.set_defaults(func=cmd_measure)
+    p = sub.add_parser("metrology-band", help="each hole metric's measurement band, from holes of known size carved "
+                       "in the committed beds (results/comparison/metrology/)")
+    p.set_defaults(func=cmd_metrology_band)
     p = sub.add_parser("report", help="pictures of one run: the holes and the tool's forces")
     p.add_argument("folder", type=run_folder, help="results/runs/<id>")
     p.set_defaults(func=cmd_report)

@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import (LATERAL, SEED, THREADS, CommandLine, Resolution, check_lateral,  # noqa: E402
+from analysis.core.config import (LATERAL, SEED, THREADS, CommandLine, ConfigError, Resolution, check_lateral,  # noqa: E402
                              load_resolution, load_soil, option, parse_overrides, soil_with)
 from analysis.core.bed_spec import (BED_DIR, bed_key, check_graded, check_size, check_tiles,  # noqa: E402
                                mean_volume, zones)
@@ -96,6 +96,21 @@ def settle(O, utils, max_time: float, label: str, log):
             raise RuntimeError(f"{label}: not settled after {max_time} s simulated (unbalanced {ub:.3f} > {SETTLE_UNBALANCED})")
 
 
+def check_cached(out: Path, soil):
+    """A cached bed was settled for its soil's Table 2 row (its grains' density follows from the bulk density and
+    moisture, and the key holds only what shapes the packing): a bed settled for other Table 2 values is refused,
+    never reused under the same key."""
+    meta = json.loads(out.with_suffix(".json").read_text())
+    target = meta.get("target_dry_bulk_density")
+    wet = meta.get("wet_bulk_density")
+    if target is not None and (abs(target - soil.bulk_density) > 1e-6 * soil.bulk_density
+                               or (wet is not None and abs(wet - soil.wet_density) > 1e-6 * soil.wet_density)):
+        raise ConfigError(f"bed {out.stem}: settled for a dry bulk density of {target:g} kg/m³ and wet {wet:g} kg/m³; "
+                          f"configs/field/table2_soils.csv now gives {soil.bulk_density:g} and {soil.wet_density:g} "
+                          f"for {soil.name}: allowed only the bed of the current Table 2 (remove {out.name} and its "
+                          ".json to settle it anew)")
+
+
 def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int = 2, quiet: bool = False,
           bed_dir: Path = BED_DIR, overrides: dict | None = None, lateral: str = "walls", tiles: int = 1) -> Path:
     """Build (or find) the bed; returns the .npz path. All checks run before YADE starts. With `tiles` > 1 the
@@ -107,6 +122,7 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
     check_graded(res, size, lateral)
     out = Path(bed_dir) / f"{key}.npz"
     if out.exists() and out.with_suffix(".json").exists():
+        check_cached(out, soil)
         return out
     if tiles > 1:
         return tile(build(soil_name, resolution, size_mm, seed, threads, quiet, bed_dir, overrides, lateral),

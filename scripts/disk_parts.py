@@ -143,6 +143,7 @@ class Motion:
         self.c_s = 2 * sleeve.damping_ratio * math.sqrt(max(self.k_s, 1e-9) * self.m_s)
         self.u_plate0 = (disk.R - sleeve.rest_from_tip) * MM
         self.travel = sleeve.travel * MM
+        self.sleeve_speed_limit = math.inf      # m/s: a plate faster than this stops the run (set by run())
         # the angles where a punch is in the soil or near it: its sleeve is integrated and it is recorded there
         self.window = (lay.phi_out - math.radians(15), lay.phi_in + math.radians(15))
         self.state = {"theta": 0.0, "omega": lay.omega, "s": [0.0] * disk.N, "sdot": [0.0] * disk.N,
@@ -185,6 +186,10 @@ class Motion:
                 sdot = -s / dt
             elif s + sdot * dt > self.travel:
                 sdot = (self.travel - s) / dt
+            if not abs(sdot) <= self.sleeve_speed_limit:      # NaN too
+                raise RuntimeError(f"sleeve {k} moves at {sdot:.3g} m/s along its punch, > {self.sleeve_speed_limit:.2f} "
+                                   f"m/s ({GUARD_SPEED:g} × the tool's top speed), at t = {t:.4f} s, under a soil force "
+                                   f"of {f_axial:.3g} N: its integration is unstable (sleeve mass, stiffness or step)")
             st["s"][k] = min(max(s + sdot * dt, 0.0), self.travel)
             st["sdot"][k] = sdot if 0.0 < st["s"][k] < self.travel else 0.0
             st["s_max"][k] = max(st["s_max"][k], st["s"][k])
@@ -401,6 +406,29 @@ def energy_balance(start: dict, end: dict) -> dict:
             "residual": residual, "residual_fraction": residual / work if work else float("nan")}
 
 
+TOOL_GUARD_EVERY = 5 * GUARD_EVERY    # steps between checks of the tools' energy balance
+TOOL_RESIDUAL_LIMIT = 0.5             # the residual may not pass this share of the tools' work (or of the scale)
+
+
+def tool_guard(balance: dict, scale: float):
+    """The guard on the tools, as `guard` is on the grains: the energy balance since the start (energy_balance)
+    may leave unexplained at most TOOL_RESIDUAL_LIMIT of the tools' work, or of `scale` (J, the whole bed at the
+    tool's top speed) while the work is still smaller. A finished strip leaves 2-3 %; an unstable sleeve or
+    disk integration makes or eats energy no force booked, and the run stops naming it, before any result.
+
+    >>> tool_guard({"work_tool": 400.0, "residual": 10.0}, 10.0)
+    >>> tool_guard({"work_tool": -577906.0, "residual": -618000.0}, 10.0)
+    Traceback (most recent call last):
+    ...
+    RuntimeError: the tools' energy balance broke: work -5.78e+05 J, residual -6.18e+05 J (more than 50 % of the work or of 10 J): the tool integration is unstable (sleeve mass, stiffness or step)
+    """
+    work, residual = balance["work_tool"], balance["residual"]
+    if not abs(residual) <= TOOL_RESIDUAL_LIMIT * max(abs(work), scale):
+        raise RuntimeError(f"the tools' energy balance broke: work {work:.3g} J, residual {residual:.3g} J (more than "
+                           f"{100 * TOOL_RESIDUAL_LIMIT:.0f} % of the work or of {scale:.3g} J): the tool integration is "
+                           "unstable (sleeve mass, stiffness or step)")
+
+
 def save_checkpoint(out: Path, state: dict):
     """YADE's scene, then the run's Python state naming it (the json replaced atomically, last), so the
     checkpoint.json on disk always names a whole scene file; then the older scene files go."""
@@ -521,12 +549,14 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         motion.state.update(ck["motion"])
         recorder.state.update(ck["recorder"])
         energy0, vmax = ck["energy0"], ck["vmax"]
+        resumed_at = [*ck.get("resumed_at", []), int(O.iter)]
         wall0, cpu0 = wall0 - ck["wall_s"], cpu0 - ck["cpu_s"]
         log(f"run {params['id']}: resumed at step {O.iter} of {n_steps} ({ck['wall_s']:.0f} s of wall time done)")
     detector = next(e for e in O.engines if e.label == "collider")
     for key, value in {**COLLIDER, **(collider or {})}.items():
         setattr(detector, key, value)
     tip_speed = motion.v + lay.omega * lay.tip_reach * MM
+    motion.sleeve_speed_limit = GUARD_SPEED * tip_speed
     window = AwakeWindow(params["awake_mm"], grain_ids, detector, law, motion, tip_speed) \
         if params.get("awake_mm") else None
     if resumed and window:
@@ -539,6 +569,7 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         window.move(elastic_now=ck["elastic_J"])
 
     if not resumed:
+        resumed_at = []
         O.run(1, True)                      # the bed's contacts exist from here on: the balance starts here
         hook_failed()
         energy0 = energy_now(law, motion, window)
@@ -564,10 +595,12 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         if checkpoint_every and time.time() - last_save > checkpoint_every and O.iter < n_steps:
             save_checkpoint(out, {"motion": motion.state, "recorder": recorder.state,
                                   "window": window.state if window else None, "energy0": energy0, "vmax": vmax,
-                                  "iter": O.iter, "wall_s": time.time() - wall0, "cpu_s": time.process_time() - cpu0,
+                                  "iter": O.iter, "resumed_at": resumed_at, "wall_s": time.time() - wall0, "cpu_s": time.process_time() - cpu0,
                                   "elastic_J": law.elasticEnergy()})
             last_save = time.time()
         motion.check_floor(preset["depth"])
+        if O.iter % TOOL_GUARD_EVERY < GUARD_EVERY:
+            tool_guard(energy_balance(energy0, energy_now(law, motion, window)), 0.5 * bed_mass * tip_speed ** 2)
         if O.iter % report < GUARD_EVERY or O.iter >= n_end:
             done = O.iter / n_steps
             formed = sum(1 for k in range(len(lay.hole_x))
@@ -598,6 +631,10 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
     st = motion.state
     summary = {"id": params["id"], "provenance": provenance(threads), "soil": soil.name, "preset": preset["name"],
                "mode": params["mode"],
+               # the steps this run was resumed at from a checkpoint: YADE rebuilds the collider on loading and
+               # orders the contacts differently, so from there on the run is another realisation of the same
+               # strip, not the uninterrupted run's bits (results/bench/README.md)
+               "resumed_at_steps": resumed_at,
                "bed": meta["key"], "particles": n_particles, "steps": int(O.iter), "dt": O.dt, "wall_s": wall,
                "cpu_s": cpu, "threads": threads, "particle_steps_per_s": n_particles * O.iter / wall,
                "travel_mm": motion.v * O.time * 1000, "sim_time_s": O.time, "z_surface_m": z_surface,

@@ -233,3 +233,21 @@ def test_bad_soil_config_is_refused(tmp_path):
     r = subprocess.run([sys.executable, str(ROOT / "scripts/bed.py"), "--soil", str(bad), *TINY],
                        capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert r.returncode == 2 and "friction_deg = 95.0 is out of range" in r.stderr
+
+
+def test_a_cached_bed_settled_for_another_table2_is_refused(tmp_path):
+    """The bed's key holds what shapes the packing; its grains' density follows Table 2. A cached bed whose
+    metadata says it was settled for another bulk density is refused, not reused under the same key."""
+    import json
+    from analysis.core.config import ConfigError, load_soil
+    from scripts.beds import check_cached
+    clay = load_soil("clay")
+    bed = tmp_path / "clay-x.npz"
+    for density, ok in ((clay.bulk_density, True), (-clay.bulk_density, False), (1.1 * clay.bulk_density, False)):
+        bed.with_suffix(".json").write_text(json.dumps({"target_dry_bulk_density": density,
+                                                        "wet_bulk_density": clay.wet_density}))
+        if ok:
+            check_cached(bed, clay)
+        else:
+            with pytest.raises(ConfigError, match="settled for a dry bulk density"):
+                check_cached(bed, clay)

@@ -8,10 +8,12 @@ import pytest
 
 from analysis.core.config import ROOT
 from analysis.core.io import read_table
+from analysis.holes.caliper import LEVEL_BELOW, LEVELS
 
 COLUMNS = {"preset", "soil", "metric", "field_mean", "field_min", "field_max", "sim_mean", "sim_sd", "ci_lo",
            "ci_hi", "n_holes", "n_runs", "abs_error", "rel_error_pct", "inside_field_range", "theory_table1",
-           "theory_envelope", "passed_holes", "field_sd", "within_10pct", "field_in_ci"}
+           "theory_envelope", "passed_holes", "field_sd", "within_10pct", "field_in_ci", "band", "claim_5pct",
+           "claim_10pct", "flip_pct"}
 
 
 def compare(*args, dirs, out):
@@ -45,7 +47,7 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     # the pressed ring beside each hole (./holes rings): both sides of both holes, the plate's face from the run
     from analysis.holes import rings
     run_dir = scene_dirs[0] / holes.run.iloc[0]
-    profile, cuts = rings.run([run_dir], tmp_path / "rings")
+    profile, levels = rings.run([run_dir], tmp_path / "rings")
     assert set(profile.groupby(["hole", "side"]).groups) == {(1, "-y"), (1, "+y"), (2, "-y"), (2, "+y")}
     summary = json.loads((run_dir / "summary.json").read_text())
     # in the metrology's datum: the scene's level (highest grain top per 4-radius cell) stands above the median
@@ -56,9 +58,13 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     assert list(profile.groupby("hole").plate_depth.first()) == pytest.approx(
         [70.0 - 40.0 - t - offset for t in summary["sleeve_max_travel_mm"][summary["lead_in"]:]], abs=0.01)
     assert profile.depth.notna().mean() > 0.8 and (tmp_path / "rings" / "rings.png").stat().st_size > 5000
-    rule = cuts[cuts.cut_probes == 1.0].set_index("hole")          # the opening cut at the rule's level: the table
-    assert np.allclose(rule[["L0", "L1", "L2"]], holes.set_index("hole")[["L0", "L1", "L2"]], atol=0.01)
-    assert len(rings.cut_slopes(cuts)) == 2
+    # the openings at 0, 5, 10, 20 mm below the subsided level: at the rule's 5 mm, the table's; the split adds up
+    rule = levels[levels.below == LEVEL_BELOW].set_index("hole")
+    assert np.allclose(rule[["L0", "L1"]], holes.set_index("hole")[["L0", "L1"]], atol=0.01)
+    assert np.allclose(levels.ahead + levels.behind, levels.L0, atol=0.01, equal_nan=True)
+    assert set(levels.below) == set(LEVELS) and (tmp_path / "rings" / "levels-clay.png").stat().st_size > 5000
+    assert (tmp_path / "comparison" / "levels" / "test" / "levels_summary.csv").exists()
+    assert set(table.claim_10pct.dropna()) <= {"yes", "no", "open", "not resolvable", "–"}
     # the run kept beside the table stands in for a run folder this machine does not have
     kept = tmp_path / "comparison" / "runs"
     kept_run = next(kept.iterdir())
@@ -85,11 +91,16 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     assert partial.returncode == 0, partial.stderr[-3000:]
     assert "not in this table" in (tmp_path / "comparison.md").read_text().split("| soil |")[0]
     assert "sand seed 1" in (tmp_path / "comparison.md").read_text().split("| soil |")[0]
+    held = read_table(kept_run / "holes.csv")                 # a truncated kept table is refused, not pooled
+    held.iloc[:1].to_csv(kept_run / "holes.csv", index=False)
+    cut = compare("--soils", "clay", "--no-run", "--kept", dirs=(tmp_path / "elsewhere", scene_dirs[1]), out=tmp_path)
+    assert cut.returncode == 2 and "holes.csv" in cut.stderr and "Traceback" not in cut.stderr, cut.stderr[-2000:]
     without = compare("--soils", "clay", "--no-run", dirs=(tmp_path / "elsewhere", scene_dirs[1]), out=tmp_path)
     assert without.returncode == 1 and "no run finished" in without.stderr     # kept runs only on asking
 
 
-@pytest.mark.parametrize("args, field", [(["--preset", "huge"], "preset"), (["--soils", "peat"], "peat")])
+@pytest.mark.parametrize("args, field", [(["--preset", "huge"], "preset"), (["--soils", "peat"], "peat"),
+                                         (["--seeds", "1,1"], "--seeds"), (["--soils", "clay,clay"], "--soils")])
 def test_compare_refuses_bad_input_before_any_scene(tmp_path, args, field):
     r = subprocess.run([sys.executable, "-m", "analysis.cli", "compare", "--runs-dir", str(tmp_path / "runs"),
                         "--bed-dir", str(tmp_path / "beds"), "--out", str(tmp_path), *args],

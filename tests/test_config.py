@@ -1,4 +1,6 @@
 """Bad input fails before anything runs, with the key and the allowed range in the message."""
+import math
+
 import pytest
 
 from analysis import cli, params_doc
@@ -154,3 +156,28 @@ def test_a_presets_machine_and_awake_are_checked(tmp_path, extra, pattern):
     path.write_text(section + "\n" + extra + "\n")
     with pytest.raises(ConfigError, match=pattern):
         load_preset("quick", path)
+
+
+@pytest.mark.parametrize("column, value", [("bulk_density_g_cm3", "-1.230"), ("moisture_percent", "-24.2"),
+                                           ("cone_index_kPa", "0"), ("cone_index_kPa", "nan"),
+                                           ("bulk_density_g_cm3", "heavy")])
+def test_table2_is_ranged_like_every_other_config(tmp_path, column, value):
+    """A negative density or moisture, a zero or NaN cone index in Table 2 is refused naming the column and
+    its range; the committed table passes."""
+    from analysis.core.config import TABLE2, table2_row
+    import pandas as pd
+    t = pd.read_csv(TABLE2, comment="#", dtype=str)
+    t.loc[t.soil == "clay", column] = value
+    path = tmp_path / "table2.csv"
+    t.to_csv(path, index=False)
+    with pytest.raises(ConfigError, match=f"clay.{column} = .*(out of range|must be a number).*allowed"):
+        table2_row("clay", "test", path)
+    for soil in ("clay", "loam", "sand"):
+        assert table2_row(soil, "test")["cone_index_kPa"] > 0
+
+
+@pytest.mark.parametrize("value", [math.inf, -math.inf, math.nan])
+def test_a_whole_number_key_refuses_inf_and_nan_with_its_range(value):
+    from analysis.core.config import SEED
+    with pytest.raises(ConfigError, match="out of range: allowed"):
+        SEED.check("run.seed", value)

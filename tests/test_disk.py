@@ -122,12 +122,29 @@ def test_weight_sets_the_penetration(side_scenes):
                                          (["--mode", "free", "--weight", "100", "--depth-stop", "90"], "depth_stop"),
                                          (["--tilled", "100"], "tilled"), (["--tilled", "60,1.2"], "tilled.density"),
                                          (["--tilled", "5,0.85"], "tilled.depth"),
-                                         (["--tilled", "200,0.85"], "tilled.depth")])
+                                         (["--tilled", "200,0.85"], "tilled.depth"),
+                                         # each inside its own range, together an unstable plate (ω·dt in the
+                                         # thousands): refused before the scene, not left to run
+                                         (["--tool", "sleeve.mass=1e-9", "--tool", "sleeve.stiffness=1e4"],
+                                          "sleeve.mass")])
 def test_bad_run_input_names_the_field(args, field):
     from analysis.core.run_spec import plan_from_argv
     with pytest.raises(ConfigError) as e:
         plan_from_argv(["--soil", "clay", "--preset", "test", *args])
     assert field in str(e.value) and "allowed" in str(e.value), str(e.value)
+
+
+def test_the_tool_guard_stops_a_balance_no_force_explains():
+    """The guard on the tools (scripts/disk_parts.py): a finished strip's 2.5 % residual passes; the unstable
+    sleeve's run (work -577,906 J, residual 107 % of it) stops; so does a residual above half the bed's
+    kinetic scale before the tools have worked."""
+    from scripts.disk_parts import tool_guard
+    tool_guard({"work_tool": 401.9, "residual": 10.2}, 10.0)
+    tool_guard({"work_tool": 0.5, "residual": 4.0}, 10.0)
+    for balance in ({"work_tool": -577906.0, "residual": -618000.0}, {"work_tool": 0.5, "residual": 6.0},
+                    {"work_tool": 1.0, "residual": float("nan")}):
+        with pytest.raises(RuntimeError, match="energy balance broke"):
+            tool_guard(balance, 10.0)
 
 
 def test_a_tilled_layer_is_a_new_run_and_an_untilled_one_keeps_its_id():
@@ -277,6 +294,7 @@ def test_a_killed_run_goes_on_from_its_checkpoint(scene_dirs, tmp_path):
     assert 0 < resumed_at < whole["steps"]
     summary = json.loads(r.stdout.strip().splitlines()[-1])
     assert summary["steps"] == whole["steps"] and summary["particles"] == whole["particles"]
+    assert summary["resumed_at_steps"] == [resumed_at] and whole["resumed_at_steps"] == []   # the resume recorded
     assert not list(folder.glob("checkpoint*"))
     a = pd.read_csv(scene_dirs[0] / whole["id"] / "timeseries.csv")
     b = pd.read_csv(folder / "timeseries.csv")

@@ -8,7 +8,10 @@ import pytest
 
 from analysis.holes import compare
 from analysis.core.config import ROOT, ConfigError, Seedling, load_criteria, threshold
-from analysis.holes.metrology import DEPTHS, measure_hole, measure_state, side_profile
+from analysis.core.io import read_table
+from analysis.holes import carved, metrology_band
+from analysis.holes.caliper import JAW, LEVEL_BELOW
+from analysis.holes.metrology import DEPTHS, caliper_reading, measure_state, side_profile
 from synthetic import carve, four_section_length, four_section_width, lattice_bed
 
 L0, W, STRAIGHT, TAPER, H1 = 92.0, 50.0, 45.0, 25.0, 13.0
@@ -24,15 +27,17 @@ def carved_bed(r, turn, jitter, centres=(150.0,), length=300.0):
     return pos, rad, pos0, rad0
 
 
-@pytest.mark.parametrize("r", [3.0, 4.0])                # the paper and default resolutions
+@pytest.mark.parametrize("r", [3.0, 4.0])                # lattice beds finer than and at the default resolution
 @pytest.mark.parametrize("turn, jitter", [(0, 0.0), (30, 0.3)])
 def test_metrology_recovers_a_carved_hole_within_one_grain_radius(r, turn, jitter):
     pos, rad, pos0, rad0 = carved_bed(r, turn, jitter)
     (hole,), z_surface, _ = measure_state(pos, rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
-    expected = {"L0": four_section_length(L0, W), "L1": four_section_width(L0, W),
-                "L2": STRAIGHT + TAPER * (1 - DIAMETER_MIN / W), "h1": H1}
+    expected = {"L2": STRAIGHT + TAPER * (1 - DIAMETER_MIN / W), "h1": H1}
     for name, value in expected.items():
         assert getattr(hole, name) == pytest.approx(value, abs=r), name
+    band = compare.measurement_bands(r, "band")                   # the caliper's stated band for one hole
+    assert hole.L0 == pytest.approx(four_section_length(L0, W), abs=band["L0"])
+    assert hole.L1 == pytest.approx(four_section_width(L0, W), abs=band["L1"])
     assert hole.x == pytest.approx(150.0, abs=r)
     # Table 1's l_H in the straight part, below the pressed ring: one chord (not a mean of four sections), so
     # the wall grains that stand up to r into the hole at either end shorten it by up to 2r
@@ -65,16 +70,15 @@ def test_a_hole_far_from_where_the_punch_entered_is_not_found():
 def test_a_crater_smeared_ahead_of_its_hole_is_found():
     """The hole at x = 150 with a scoop 35 mm deep running on to x = 270: the opening's centroid is
     about 33 mm ahead of the entry (> D/2), but its bottom is under it, so it is this punch's hole, and its
-    centre, taken at its effective depth, is the hole's, not the scoop's. Its length is the hole's own: the
-    wall turns flat at the scoop's floor, 22 mm below the opening level (until the wall-edge rule, the opening
-    ran on to x = 270 and L0 read 160 mm)."""
+    centre, taken at its effective depth, is the hole's, not the scoop's. The caliper, 5 mm under the subsided
+    level, reads the opening there: the hole and the scoop open into it, so L0 runs on into the scoop."""
     pos, rad, pos0, rad0 = carved_bed(4.0, 10, 0.2)
     z_top = np.percentile(pos0[:, 2] + rad0, 99)
     pos, rad = carve(pos, rad, 220.0, 80, z_top, 100.0, W, 30.0, 5.0, 0.0, ring=0.0)
     (hole,), _, _ = measure_state(pos, rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
     assert hole.found                                                 # the centroid-only rule lost it
     assert hole.x == pytest.approx(150.0, abs=4.0)                    # the opening's centroid: ~183
-    assert hole.L0 == pytest.approx(four_section_length(L0, W), abs=2 * 4.0)    # the hole: x 104 ... 196
+    assert hole.L0 > four_section_length(L0, W) and hole.ahead > hole.behind + 50   # the scoop is ahead
     assert hole.bottom == pytest.approx(H1 + STRAIGHT + TAPER, abs=2 * 4.0)
 
 
@@ -91,56 +95,92 @@ def test_h1_reads_the_pressed_ring_not_the_rim_heaved_round_it(r):
     pos[np.hypot(pos[:, 0] - 150, pos[:, 1] - 80) >= 40, 2] += heave
     (hole,), z_surface, (xs, ys, S) = measure_state(pos, rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
     assert hole.h1 == pytest.approx(press, abs=r)
-    assert hole.L1 == pytest.approx(50.0, abs=2 * r)             # the hole at the ring's level, not ring + hole
+    assert hole.L1 == pytest.approx(four_section_width(50.0, 50.0), abs=compare.measurement_bands(r, "band")["L1"])
     centres, depth = side_profile(S, xs, ys, z_surface, 150.0, 80.0, 50.0, 70.0)
     assert np.allclose(depth[:, centres < 40 - 2 * r], press, atol=r)   # both sides, up to the rim's overhang
     assert np.allclose(depth[:, centres > 40 + r], -heave, atol=r)
 
 
+RADII = metrology_band.RADII          # every grain radius a preset uses
+
+
 @functools.lru_cache(maxsize=None)
-def carved_with_shelf(r, shape, shelf):
-    """A carved hole pressed 13 mm round (a stadium 92 x 50 mm with vertical walls 45 mm deep, or a cone 60 mm
-    across at the ring whose diameter shrinks 1 mm per mm of depth), and optionally a shelf `shelf` mm below the
-    pressed ring running 90 x 60 mm on from its +x end, as the sleeve's plate leaves beside a simulated hole."""
-    pos0, rad0 = lattice_bed(300, 160, 100, r, jitter=0.2, turn=10)
-    z_top = np.percentile(pos0[:, 2] + rad0, 99)
-    length, width, straight, taper = (L0, W, STRAIGHT, TAPER) if shape == "stadium" else (60.0, 60.0, 0.0, 60.0)
-    pos, rad = carve(pos0, rad0, 150, 80, z_top, length, width, straight, taper, H1, ring=20)
-    if shelf:
-        pos, rad = carve(pos, rad, 215, 80, z_top - H1, 90.0, 60.0, shelf, 0.5, 0.0, ring=0.0)
-    return measure_state(pos, rad, pos0, rad0, 160, [150.0], 50.0, 80.0, DIAMETER_MIN)
+def carved_rows(r):
+    """The carved holes of one soil's bed at grain radius r, one place: every shape, both carvings."""
+    return metrology_band.measure_carved(r, realisations=1, soils=1)
 
 
-@pytest.mark.parametrize("r", [4.0, 5.0])
-@pytest.mark.parametrize("shape, shelf", [("stadium", 0.0), ("stadium", 6.0), ("stadium", 10.0), ("cone", 0.0),
-                                          ("cone", 6.0)])
-def test_one_probe_radius_of_cut_moves_the_opening_by_at_most_3_mm(r, shape, shelf):
-    """L0 and L1 are read between the wall's edges: where it crosses the level one probe radius below the
-    pressed ring, or turns flatter than 40° below it. Moving that level by one probe radius (0.5 -> 1.5) moves
-    them by no more than 3 mm, on vertical walls, on a cone's 63° walls, and with a shelf 6 or 10 mm below the
-    ring beside the hole (the earlier rule, the connected region below the level, took in a shelf cut below
-    it: a median 35 mm of L0 on the simulated holes). A shelf is not the opening: L0 is the hole's own."""
-    _, z_surface, (xs, ys, S) = carved_with_shelf(r, shape, shelf)
-    shallow, deep = (measure_hole(S, xs, ys, z_surface, 150.0, 80.0, 50.0, 80.0, r, DIAMETER_MIN, cut=k * r)
-                     for k in (0.5, 1.5))
-    for name in ("L0", "L1"):
-        assert abs(getattr(shallow, name) - getattr(deep, name)) <= 3.0, name
-    assert deep.h1 == shallow.h1 and deep.L2 == shallow.L2
-    (hole,), _, _ = carved_with_shelf(r, shape, 0.0)
-    (with_shelf,), _, _ = carved_with_shelf(r, shape, shelf)
-    assert with_shelf.L0 == pytest.approx(hole.L0, abs=r)
+@pytest.mark.parametrize("r", RADII)
+def test_the_runs_caliper_recovers_carved_holes_within_its_stated_bias(r):
+    """Every shape and carving, at every grain radius a preset uses, carved at a place of the bed the band
+    table did not use: the mean error of the chosen caliper's L0 and L1, and of h1, L2, L2_surface, lies within
+    the band a mean carries (band_mean, results/comparison/metrology/band.csv). Single holes are not held to the
+    one-hole band: the basin's L0 has a heavy tail (up to 1.6 bands at these places), said in the README."""
+    rows = carved_rows(r)
+    rows = rows[rows.jaw.isna() | ((rows.jaw == JAW.name) & (rows.below == LEVEL_BELOW))]
+    band = compare.measurement_bands(r)
+    assert set(rows.metric) == {"L0", "L1", "L2", "L2_surface", "h1"}
+    for m, g in rows.groupby("metric"):
+        assert abs(g.error.mean()) <= band[m], (m, g.error.round(1).tolist(), band[m])
 
 
-@pytest.mark.parametrize("r", [3.0, 4.0, 5.0])
-def test_a_sloping_walls_mouth_reads_short_by_a_few_grains(r):
-    """The wall-edge rule's known bias: where the wall slopes (the cone's 63°), the grains and the probe round
-    its lip, and the turn is found below it. Measured against the cone's four-section chords at the ring
-    (53.4 mm): L0 0.6-1.5 and L1 1.7-2.4 grain radii short at r = 3, 4 and 5 mm (vertical walls: within
-    1.3 r, test above). Pinned so a change of the rule that moves it is seen."""
-    (hole,), _, _ = carved_with_shelf(r, "cone", 0.0)
-    expected = four_section_length(60.0, 60.0)
-    for name in ("L0", "L1"):
-        assert expected - 3 * r <= getattr(hole, name) <= expected + r, name
+@pytest.mark.parametrize("r", [5.0, 8.0])
+def test_the_basin_hole_reads_the_same_opening_when_the_grid_step_halves(r):
+    """The caliper reads the grains, not a grid: only the subsided level and the jaws' start come from the
+    probed surface's grid. Halving its step (1 -> 0.5 mm) moved the basin hole's L0 and L1 by at most 3.5 mm
+    at r = 5 and 8 mm; allowed: a quarter of the one-hole band."""
+    bed = metrology_band.beds(r)[0]
+    pos0, rad0, width = next(metrology_band.places(bed, 1))
+    xc = metrology_band.WINDOW / 2
+    _, z_ref, _ = measure_state(pos0, rad0, pos0, rad0, width, [xc], 50.0, 80.0, DIAMETER_MIN)
+    pos, rad = carved.carve(pos0, rad0, "basin", "touch", xc, width / 2, z_ref)
+    coarse, fine = (measure_state(pos, rad, pos0, rad0, width, [xc], 50.0, 80.0, DIAMETER_MIN, cell=c)[0][0]
+                    for c in (1.0, 0.5))
+    band = compare.measurement_bands(r, "band")
+    for m in ("L0", "L1"):
+        assert abs(getattr(coarse, m) - getattr(fine, m)) <= band[m] / 4, m
+
+
+@pytest.mark.parametrize("r", RADII)
+def test_one_probe_radius_of_level_moves_the_opening_by_less_than_its_band(r):
+    """Reading one probe radius deeper than the rule (5 mm under the subsided level) moves L0 and L1 of the
+    straight-walled carved holes by no more than their one-hole band."""
+    pos0, rad0, width = next(metrology_band.places(metrology_band.beds(r)[0], 1))
+    xc = metrology_band.WINDOW / 2
+    _, z_ref, _ = measure_state(pos0, rad0, pos0, rad0, width, [xc], 50.0, 80.0, DIAMETER_MIN)
+    band = compare.measurement_bands(r, "band")
+    for shape in ("cylinder", "mouth"):
+        for carving in carved.CARVINGS:
+            pos, rad = carved.carve(pos0, rad0, shape, carving, xc, width / 2, z_ref)
+            (hole,), _, _ = measure_state(pos, rad, pos0, rad0, width, [xc], 50.0, 80.0, DIAMETER_MIN)
+            deeper = caliper_reading((pos, rad), hole.x0, hole.y0, hole.z_open, JAW, LEVEL_BELOW + r,
+                                     float(rad.mean()), 50.0)
+            for m in ("L0", "L1"):
+                assert abs(getattr(deeper, m) - getattr(hole, m)) <= band[m], (shape, carving, m)
+
+
+def test_the_runs_caliper_is_the_one_the_carved_holes_chose():
+    """The caliper the runs read with is the candidate choose_jaw picks from the committed carved-hole table."""
+    bands = read_table(ROOT / "results/comparison/metrology/candidates.csv")
+    assert metrology_band.choose_jaw(bands) == (JAW.name, LEVEL_BELOW)
+
+
+def test_carved_truth_follows_the_four_line_rule():
+    """The void's own readings: the mouth's stadium by the closed form; the basin's ramp lengthens L0 ahead of
+    the axis the less deep the level; the cylinder's 4 lines are the circle's chords."""
+    mouth = carved.truth("mouth", 5.0)
+    assert mouth["L0"] == pytest.approx(four_section_length(90.0, 50.0), abs=0.5)
+    assert mouth["L1"] == pytest.approx(four_section_width(90.0, 50.0), abs=0.5)
+    shallow, deep = carved.truth("basin", 0.0), carved.truth("basin", 10.0)
+    assert shallow["ahead"] > deep["ahead"] > mouth["ahead"] and shallow["behind"] == pytest.approx(deep["behind"])
+    assert carved.truth("cylinder", 5.0)["L0"] == pytest.approx(four_section_length(50.0, 50.0), abs=0.5)
+
+
+def test_a_pass_flips_inside_the_band_only_near_a_threshold():
+    crit = {"L0": 49.5, "L1": 49.5, "L2": 40.0}
+    holes = pd.DataFrame({"L0": [90.0, 90.0], "L1": [60.0, 51.0], "L2": [60.0, 60.0]})
+    assert compare.pass_flips(holes, crit, {"L0": 3.0, "L1": 3.0, "L2": 3.0}) == 50.0
+    assert compare.pass_flips(holes, crit, {}) == 0.0
 
 
 def test_criteria_readings_and_a_bad_threshold():

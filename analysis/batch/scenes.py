@@ -16,8 +16,7 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
 from analysis.core.config import ROOT, ConfigError
-
-_print_lock = threading.Lock()
+from analysis.core.io import say  # noqa: F401  (the batch's progress lines; imported from here by its callers)
 
 # A case's fields, named as in the seed and the configs, and the scripts/disk.py options that set them.
 PLAIN = {"soil": "--soil", "preset": "--preset", "seed": "--seed", "slip": "--slip", "speed_kmh": "--speed-kmh",
@@ -26,11 +25,6 @@ PLAIN = {"soil": "--soil", "preset": "--preset", "seed": "--seed", "slip": "--sl
          "weight": "--weight", "depth_stop": "--depth-stop", "disk_inertia": "--disk-inertia",
          "density_scale": "--density-scale", "tilled": "--tilled"}
 PREFIXED = {"disk": "--tool", "sleeve": "--tool", "soil": "--set"}
-
-
-def say(msg: str):
-    with _print_lock:
-        print(msg, file=sys.stderr, flush=True)
 
 
 def scene_args(fields: dict) -> list[str]:

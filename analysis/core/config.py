@@ -47,6 +47,8 @@ class Field:
             return value
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ConfigError(f"{where} = {value!r}: must be a number in {self.allowed()}")
+        if not math.isfinite(value):
+            raise ConfigError(f"{where} = {value!r} is out of range: allowed {self.allowed()}")
         if self.kind is int and int(value) != value:
             raise ConfigError(f"{where} = {value!r}: must be a whole number in {self.allowed()}")
         ok_lo = value > self.lo if self.lo_open else value >= self.lo
@@ -494,16 +496,37 @@ class Soil:
                 "rolling_friction": self.rolling_friction, "poisson": self.poisson}
 
 
-def soil_from_dict(name: str, values: dict, where: str) -> Soil:
+TABLE2 = ROOT / "configs/field/table2_soils.csv"
+TABLE2_FIELDS = {       # seed 001 Table 2's columns, ranged like every other config value
+    "bulk_density_g_cm3": Field(0.5, 2.5, unit="g/cm³", meaning="dry bulk density of the field soil"),
+    "cone_index_kPa": Field(0.0, 1e4, lo_open=True, unit="kPa", meaning="cone index, mean over 0-150 mm"),
+    "moisture_percent": Field(0.0, 100.0, hi_open=True, unit="%", meaning="moisture, mass of water to dry soil"),
+}
+
+
+def table2_row(name: str, where: str, path=TABLE2) -> dict:
+    """A soil's row of seed 001 Table 2, every number checked against TABLE2_FIELDS."""
     import csv
-    v = check_table(where, values, SOIL_FIELDS)
-    with open(ROOT / "configs/field/table2_soils.csv") as f:
+    with open(path) as f:
         rows = {r["soil"]: r for r in csv.DictReader(line for line in f if not line.startswith("#"))}
     if name not in rows:
         raise ConfigError(f"{where}: soil {name!r} is not in seed 001 Table 2; allowed: {', '.join(rows)}")
-    t = rows[name]
-    return Soil(name=name, **v, bulk_density=1000 * float(t["bulk_density_g_cm3"]),
-                cone_index=1000 * float(t["cone_index_kPa"]), moisture=float(t["moisture_percent"]) / 100)
+    out = {}
+    for key, field in TABLE2_FIELDS.items():
+        text = rows[name].get(key)
+        try:
+            value = float(text)
+        except (TypeError, ValueError):
+            raise ConfigError(f"{path}: {name}.{key} = {text!r}: must be a number, allowed {field.allowed()}") from None
+        out[key] = field.check(f"{path}: {name}.{key}", value)
+    return out
+
+
+def soil_from_dict(name: str, values: dict, where: str) -> Soil:
+    v = check_table(where, values, SOIL_FIELDS)
+    t = table2_row(name, where)
+    return Soil(name=name, **v, bulk_density=1000 * t["bulk_density_g_cm3"],
+                cone_index=1000 * t["cone_index_kPa"], moisture=t["moisture_percent"] / 100)
 
 
 def load_soil(name_or_path) -> Soil:

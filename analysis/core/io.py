@@ -5,6 +5,8 @@ import datetime
 import os
 import platform
 import subprocess
+import sys
+import threading
 from pathlib import Path
 
 import pandas as pd
@@ -19,6 +21,15 @@ def head() -> str:
                               text=True, timeout=5).stdout.strip() or "uncommitted"
     except (OSError, subprocess.SubprocessError):
         return "unknown"
+
+
+_print_lock = threading.Lock()
+
+
+def say(msg: str):
+    """A progress line on stderr, whole even when threads print at once."""
+    with _print_lock:
+        print(msg, file=sys.stderr, flush=True)
 
 
 LOADED = head()     # the commit whose code this process runs: a long job may outlive a later checkout

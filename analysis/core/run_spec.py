@@ -65,6 +65,40 @@ class RunSpec:
     tilled: tuple | list | None = None      # [depth mm, density ratio]: the tiller's loosened top layer
 
 
+GRAIN_DENSITY_BOUND = 4000.0   # kg/m³: above any Table 2 bed's grain density (about 3000), so the step is overestimated
+SLEEVE_STEP = 0.5              # the sleeve's ω·dt may not exceed this (explicit integration is stable below 2)
+
+
+def check_sleeve_step(sleeve, soil, res, dt_safety: float, density_scale: float = 1.0):
+    """The press plate's axial motion is integrated explicitly (scripts/disk_parts.py Motion) against its
+    spring and the soil's contacts under it; it is stable only while its natural period spans several time
+    steps. Before any scene: ω·dt <= SLEEVE_STEP, with ω² = (k_spring + k_soil)/m, k_soil the normal stiffness
+    of the grains the plate's ring can hold (its area over π r², each 2·E·r against steel) and dt YADE's
+    P-wave step for the smallest grains at GRAIN_DENSITY_BOUND (an overestimate, so the check errs safe).
+
+    >>> from types import SimpleNamespace as N
+    >>> soil, res = N(young=2e7), N(radius=0.006, spread=0.25)
+    >>> check_sleeve_step(N(mass=0.2, stiffness=8.0, outer_diameter=80.0, damping_ratio=0.2), soil, res, 0.5)
+    >>> check_sleeve_step(N(mass=1e-9, stiffness=1e4, outer_diameter=80.0, damping_ratio=0.2), soil, res, 0.5)
+    Traceback (most recent call last):
+    ...
+    analysis.core.config.ConfigError: sleeve.mass = 1e-09 kg is out of range for this scene: allowed >= 0.083 kg (the plate's period against the time step: ω·dt = 4.5e+03 > 0.5, with the spring 10000 N/mm and the soil under the plate about 1e+04 N/mm, dt about 3.2e-05 s)
+    """
+    r_mean = res.radius
+    r_min = res.radius * (1 - res.spread)
+    dt = dt_safety * r_min * math.sqrt(GRAIN_DENSITY_BOUND * density_scale / soil.young)
+    ring = math.pi / 4 * ((sleeve.outer_diameter / 1000) ** 2 - (2 * r_mean) ** 2)     # m², at least one grain
+    k_soil = max(ring / (math.pi * r_mean ** 2), 1.0) * 2 * soil.young * r_mean
+    k = sleeve.stiffness * 1e3 + k_soil
+    omega_dt = math.sqrt(k / sleeve.mass) * dt
+    if omega_dt > SLEEVE_STEP:
+        need = k * (dt / SLEEVE_STEP) ** 2
+        raise ConfigError(f"sleeve.mass = {sleeve.mass:g} kg is out of range for this scene: allowed >= {need:.2g} kg "
+                          f"(the plate's period against the time step: ω·dt = {omega_dt:.2g} > {SLEEVE_STEP:g}, with the "
+                          f"spring {sleeve.stiffness:g} N/mm and the soil under the plate about {k_soil / 1e3:.2g} N/mm, "
+                          f"dt about {dt:.2g} s)")
+
+
 def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
     """Every parameter of the run, checked, before YADE starts: `plan(RunSpec(...))`, or `plan("clay", "quick",
     holes=4)` for the same spec written out."""
@@ -102,6 +136,7 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
     if preset.width <= sleeve.outer_diameter:
         raise ConfigError(f"preset.width = {preset.width:g} is out of range: allowed > sleeve outer diameter "
                           f"{sleeve.outer_diameter:g} mm")
+    check_sleeve_step(sleeve, soil, res, preset.dt_safety, spec.density_scale or 1.0)
     lay = layout(disk, speed_kmh, slip, preset.holes, preset.lead_in, preset.run_out,
                  tip_sphere=TIP_SPHERE_RATIO * disk.d)
     params = {"soil": as_dict(soil), "disk": as_dict(disk), "sleeve": as_dict(sleeve), "preset": preset.in_run(),

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.holes import compare, measure
+from analysis.holes import compare, measure, rings
 from analysis.batch.scenes import finished, plan_case, run_all, say, scene_args
-from analysis.core.config import ROOT, load_criteria, load_preset
+from analysis.core.config import ROOT, ConfigError, load_criteria, load_preset
 from analysis.holes.machine import TARGET_METRICS, load_of
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
@@ -39,6 +39,11 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = N
     runs_dir = Path(runs_dir or ROOT / "results/runs")
     bed_dir = Path(bed_dir or BED_DIR)
     out = Path(out or ROOT / "results")
+    for name, values in (("--soils", soils), ("--seeds", seeds)):
+        twice = sorted({str(v) for v in values if list(values).count(v) > 1})
+        if twice:
+            raise ConfigError(f"{name} names {', '.join(twice)} more than once: allowed each once (one run's holes "
+                              "would be counted twice and the interval narrowed)")
     fields = [{"soil": soil, "preset": preset, "seed": seed} for soil in soils for seed in seeds]
     cases = [plan_case(f) for f in fields]              # every input checked before any scene, no YADE
     criteria = load_criteria()
@@ -57,10 +62,12 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = N
     else:
         failures = run_all(batch, parallel, threads, runs_dir, bed_dir, scheduler=scheduler, label=f"compare {preset}")
 
-    tables, summaries, local, missing = [], [], [], []
+    tables, summaries, local, missing, levels = [], [], [], [], []
     for c, f in zip(cases, fields):
         if finished(runs_dir, c["id"]):
-            tables.append(measure.run(runs_dir / c["id"]))
+            table, measured = measure.measure_and_write(runs_dir / c["id"])
+            tables.append(table)
+            levels.append(rings.level_table(measured))
             if machine:                         # the load the calibrated machine must carry, kept with the run
                 summary = json.loads((runs_dir / c["id"] / "summary.json").read_text())
                 load_of(runs_dir / c["id"], summary, len(tables[-1]))
@@ -68,10 +75,17 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = N
             local.append(c)
         elif c["id"] in elsewhere and (kept / c["id"] / "state.npz").exists():
             say(f"compare: {c['id']} is not on this machine; measured again from its kept grains ({kept / c['id']})")
-            tables.append(measure.run(kept / c["id"], pictures=False))
+            table, measured = measure.measure_and_write(kept / c["id"], pictures=False)
+            tables.append(table)
+            levels.append(rings.level_table(measured))
+        elif c["id"] in elsewhere and not measure.current(measure.kept_holes(kept / c["id"])):
+            say(f"compare: {c['id']} was measured with a former metrology and its grains were not kept; left out")
+            missing.append(f"{f['soil']} seed {f['seed']} ({c['id']}: measured with a former metrology, no grains "
+                           "kept to measure again)")
+            continue
         elif c["id"] in elsewhere:
             say(f"compare: {c['id']} is not on this machine; its holes as measured earlier ({kept / c['id']})")
-            tables.append(read_table(kept / c["id"] / "holes.csv"))
+            tables.append(measure.kept_holes(kept / c["id"]))
         else:
             missing.append(f"{f['soil']} seed {f['seed']} ({c['id']})")
             continue
@@ -89,9 +103,22 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = N
                + " --no-run" * no_run + " --kept" * kept_runs)
     write(out, preset, holes, table, field, pd.DataFrame(summaries), criteria, runs_dir, local, seeds, command,
           missing)
+    if levels:
+        write_levels(out / "comparison" / "levels" / preset, pd.concat(levels, ignore_index=True), command)
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures else 0
+
+
+def write_levels(folder: Path, levels: pd.DataFrame, command: str):
+    """How much the openings hang on the level they are read at (rings.level_table), per preset: levels.csv,
+    levels_summary.csv and one picture per soil."""
+    folder.mkdir(parents=True, exist_ok=True)
+    note = stamp(command)
+    atomic_csv(levels.round(2), folder / "levels.csv", note + "; mm; the caliper `below` mm under the subsided level")
+    atomic_csv(rings.level_summary(levels).round(3), folder / "levels_summary.csv",
+               note + "; mm per soil and level; *_per_mm: the move per mm of level (least squares)")
+    rings.plot_levels(levels, folder, command)
 
 
 def keep(folder: Path, to: Path):

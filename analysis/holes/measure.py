@@ -10,13 +10,35 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.core.config import Resolution, load_seedling
-from analysis.core.io import atomic_csv, stamp
+from analysis.core.config import ConfigError, Resolution, load_seedling
+from analysis.core.io import atomic_csv, read_table, stamp
 from analysis.core.kinematics import formed_hole_x
 from analysis.holes.metrology import DEPTHS, measure_state
 
-COLUMNS = ["run", "soil", "seed", "hole", "found", "x", "C", "h1", "L0", "L1", "L2", "L2_surface", "bottom", "grain_radius",
-           "probe", "cell", *(f"l_{H}" for H in DEPTHS)]
+COLUMNS = ["run", "soil", "seed", "hole", "found", "x", "C", "h1", "L0", "L1", "L2", "L2_surface", "L0_ahead",
+           "L0_behind", "bottom", "grain_radius", "probe", "cell", *(f"l_{H}" for H in DEPTHS)]
+
+
+def current(holes: pd.DataFrame) -> bool:
+    """Whether a holes table was measured by this metrology (its columns are this one's): a table measured by a
+    former one (other openings, caliper.py) is not pooled with this one's."""
+    return set(COLUMNS) <= set(holes.columns)
+
+
+def kept_holes(folder: Path) -> pd.DataFrame:
+    """A kept run's holes.csv, checked against its summary.json: readable, one row per measured hole, the hole
+    numbers 1 ... n; a ConfigError naming the file otherwise (a truncated or foreign table is never pooled)."""
+    path = Path(folder) / "holes.csv"
+    try:
+        holes = read_table(path)
+        summary = json.loads((Path(folder) / "summary.json").read_text())
+        expected = len(summary["hole_x_mm"]) - summary.get("lead_in", 0)
+    except (OSError, ValueError, KeyError, pd.errors.ParserError) as e:
+        raise ConfigError(f"{path}: not a kept run's holes and summary ({type(e).__name__}: {e})") from None
+    if "hole" not in holes or len(holes) != expected or list(holes.hole) != list(range(1, expected + 1)):
+        raise ConfigError(f"{path}: {len(holes)} rows, allowed exactly {expected} holes numbered 1 ... {expected} "
+                          "(its summary.json's measured holes): a truncated or foreign table")
+    return holes
 
 
 def load_run(folder: Path):
@@ -65,7 +87,7 @@ def hole_centres(summary: dict) -> list:
 
 def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
     """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2,
-    the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...);
+    L0's parts ahead of (+x) and behind the hole's axis, the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...);
     the probe is the mean grain radius. A hole not found where the punch entered (metrology.measure_hole)
     keeps its kinematic x and NaN measures, and no spacing C is taken to or from it. Also returns what the
     pictures need: the hole measures, the undisturbed level, the probed surface and the loaded run."""
@@ -83,7 +105,7 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     rows = [{"run": summary["id"], "soil": cfg["soil"]["name"], "seed": cfg["seed"], "hole": k + 1,
              "found": h.found, "x": h.x,
              "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2, "L2_surface": h.L2 + h.h1,
-             "bottom": h.bottom, "grain_radius": probe, "probe": probe, "cell": cell,
+             "L0_ahead": h.ahead, "L0_behind": h.behind, "bottom": h.bottom, "grain_radius": probe, "probe": probe, "cell": cell,
              **{f"l_{H}": v for H, v in zip(DEPTHS, h.l_depth)}}
             for k, h in enumerate(holes)]
     return pd.DataFrame(rows, columns=COLUMNS), holes, z_surface, surf, loaded
@@ -91,13 +113,18 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
 
 def run(folder, cell: float = 1.0, pictures: bool = True) -> pd.DataFrame:
     """Measure a finished run; write holes.csv and (unless not `pictures`) the pictures into its folder."""
+    return measure_and_write(folder, cell, pictures)[0]
+
+
+def measure_and_write(folder, cell: float = 1.0, pictures: bool = True):
+    """run(), also returning measure_run()'s whole answer for what is read off the same grains next."""
     folder = Path(folder)
-    table, holes, z_surface, surf, loaded = measure_run(folder, cell)
+    measured = table, holes, z_surface, surf, loaded = measure_run(folder, cell)
     table = table.round(2)                  # what holes.csv holds, so a kept run's table reads the same
     atomic_csv(table, folder / "holes.csv", stamp(f"./holes measure {folder.name}") + "; mm, seed 001 §4.2")
     if pictures:
         plot(folder, loaded, holes, z_surface, surf)
-    return table
+    return table, measured
 
 
 def plot(folder: Path, loaded, holes, z_surface: float, surf):

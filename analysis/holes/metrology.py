@@ -10,6 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from analysis.holes.caliper import JAW, LEVEL_BELOW, Jaw, near_hole, read_opening
+
 
 def height_map(pos, radius, cell: float, x_range, y_range):
     """Top surface z(x, y) on a grid of square cells of side `cell`: returns (x centres, y centres, z[ix, iy])."""
@@ -61,7 +63,6 @@ def deficit_centres(pos, initial_pos, radius, y_centre: float, half_band: float,
 # their size; its resolution is the grid step across and about the probe radius in height.
 
 DEPTHS = tuple(range(5, 65, 5))      # mm below the undisturbed surface: Table 1's l_5 ... l_60
-SECTIONS = (0.2, 0.4, 0.6, 0.8)     # §4.2: "measured at 4 places, equally spaced": lines at 1/5 ... 4/5
 
 
 def probed_surface(pos, radius, xs, ys, probe: float):
@@ -93,73 +94,6 @@ def grow(mask, seed):
     return (labels == labels[seed]) & mask if mask[seed] else np.zeros_like(mask)
 
 
-def chord(mask_line, step: float) -> float:
-    """A caliper reading on one grid line of the opening: from its first cell to its last."""
-    idx = np.flatnonzero(mask_line)
-    return float((idx[-1] - idx[0] + 1) * step) if len(idx) else 0.0
-
-
-WALL_TURN_DEG = 40.0     # the hole's wall ends where the surface rises less steeply than this outward
-WALL_WINDOW = 1.0        # ... over this many probe diameters
-CORE = 0.5               # the hole's core: the region below the level this far from the opening down to the bottom
-
-
-def wall_edges(line, start: int, z_top: float, z_wall: float, window: int, rise: float) -> tuple[int, int]:
-    """The hole's two edges on one grid line of the probed surface, walking out both ways from cell `start` (on
-    the hole's bottom): an edge is the last cell below `z_top` (the cut, where a vertical wall crosses it), or,
-    once the walk is above `z_wall` (the hole's upper part), the cell where the wall turns flat: it rose at
-    least `rise` over the last `window` cells and rises less over the next (a shelf or a shallow scoop beside
-    the hole is not its opening; the flat floor of a line off the hole's axis is not a turn). A cell with no
-    grain under it ends the walk."""
-    edges = []
-    for way in (-1, 1):
-        i = start
-        while True:
-            j = i + way
-            if not 0 <= j < len(line) or not np.isfinite(line[j]) or line[j] >= z_top:
-                break
-            i = j
-            ahead, behind = i + way * window, i - way * window
-            if (line[i] > z_wall and 0 <= ahead < len(line) and 0 <= behind < len(line)
-                    and line[ahead] - line[i] < rise <= line[i] - line[behind]):
-                break
-        edges.append(i)
-    return edges[0], edges[1]
-
-
-def opening_lengths(S, seed, z_open: float, cut: float, step: float, probe: float, reach: float):
-    """(L0, L1): the hole's opening along x and across y, each the mean of 4 caliper readings on lines at
-    1/5 ... 4/5 of its extent the other way (§4.2), read between the wall's edges (wall_edges): where the wall
-    crosses the level `cut` below the opening level z_open, or turns flat below it. The lines along x are
-    placed over the hole's core (the region the probe reaches below halfway from z_open to the bottom, grown
-    from the deepest cell `seed`), those across over the length L0 found. Each line starts at its lowest cell
-    within `reach` of the seed. S is the probe's bottom, so each reading gains the probe's diameter (its side
-    meets a standing wall). The edges' level and slope are grain-scale choices fixed before any calibration:
-    one probe radius and WALL_TURN_DEG over a probe diameter."""
-    bottom = float(S[seed])
-    z_wall = z_open - CORE * (z_open - bottom)
-    below = np.where(np.isfinite(S), S, -np.inf)
-    core = grow(below < z_wall, seed)
-    window = max(1, int(round(WALL_WINDOW * 2 * probe / step)))
-    rise = window * step * np.tan(np.radians(WALL_TURN_DEG))
-    n_reach = int(round(reach / step))
-
-    def read(line, centre):
-        lo, hi = max(0, centre - n_reach), min(len(line), centre + n_reach + 1)
-        part = np.where(np.isfinite(line[lo:hi]), line[lo:hi], np.inf)
-        return wall_edges(line, lo + int(np.argmin(part)), z_open - cut, z_wall, window, rise)
-
-    iy = np.nonzero(core)[1]
-    rows = [int(round(iy.min() + f * (iy.max() - iy.min()))) for f in SECTIONS]
-    along = [read(S[:, j], seed[0]) for j in rows]
-    L0 = float(np.mean([(b - a + 1) * step for a, b in along])) + 2 * probe
-    x_lo, x_hi = np.mean([a for a, _ in along]), np.mean([b for _, b in along])
-    cols = [int(round(x_lo + f * (x_hi - x_lo))) for f in SECTIONS]
-    across = [read(S[i, :], seed[1]) for i in cols]
-    L1 = float(np.mean([(b - a + 1) * step for a, b in across])) + 2 * probe
-    return L0, L1
-
-
 def inscribed_diameter(mask, step: float, probe: float) -> float:
     """Diameter of the widest circle inside the region that the probe's centre reaches (`mask`): twice the
     largest distance from a reached cell to an unreached one (less half a cell), plus the probe's diameter."""
@@ -182,71 +116,96 @@ class HoleMeasure:
     """One hole, measured as in seed 001 §4.2 (mm). z_open: the level of the opening (subsided surface)."""
     x: float            # centre along the travel: the centroid of the hole's section at its effective depth L2
     h1: float           # subsidence of the pressed ring beside the hole
-    L0: float           # opening length along the travel, mean of 4 sections
-    L1: float           # opening width across the travel, mean of 4 sections
+    L0: float           # opening length along the travel, mean of 4 caliper readings (caliper.py)
+    L1: float           # opening width across the travel, mean of 4 caliper readings
     L2: float           # effective depth: opening level down to where the inner diameter falls to √2·a2
     bottom: float       # deepest probed point of the hole below the undisturbed surface
     z_open: float
     l_depth: tuple = ()  # length along the travel at each of DEPTHS below the undisturbed surface (Table 1's l_H)
     found: bool = True   # False: the opening's centre and its deepest point are both more than D/2 from where
                          # the punch entered
+    x0: float = np.nan   # where the caliper's jaws are put in: the centroid of the hole's section at L2 (x0 = x),
+    y0: float = np.nan   # or its deepest probed point when no opening is found
+    ahead: float = np.nan   # L0's part ahead of x0 (+x, the travel) and behind it
+    behind: float = np.nan
+
+
+def subsided_level(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sleeve_outer: float) -> float:
+    """h1, the subsidence round a hole: z_surface minus the median probed surface on the inner half of the ring
+    the sleeve's plate pressed beside it across the travel, |x - xc| <= D/4 and D/2 <= |y - yc| <= (D/2 +
+    sleeve_outer/2)/2 (h1_band). Not ahead of or behind the hole, where the plate's basin ramps into it, and not
+    the ring's outer half, where the rim heaved round the plate overhangs the probed surface (results/rings)."""
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    lo, hi = h1_band(D, sleeve_outer)
+    side = (np.abs(X - xc) <= D / 4) & (np.abs(Y - yc) >= lo) & (np.abs(Y - yc) <= hi)
+    return z_surface - float(np.nanmedian(S[side]))
 
 
 def measure_hole(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, sleeve_outer: float,
-                 probe: float, diameter_min: float, dz: float = 1.0, cut: float | None = None) -> HoleMeasure:
-    """Measure the hole nearest (xc, yc) on the probed surface S (seed 001 §4.2).
+                 probe: float, diameter_min: float, grains, dz: float = 1.0,
+                 jaw: Jaw = JAW, below: float = LEVEL_BELOW) -> HoleMeasure:
+    """Measure the hole nearest (xc, yc) on the probed surface S of the grains `grains` = (pos, radius) (§4.2).
 
-    h1: z_surface minus the median of S beside the hole, on the inner half of the ring the sleeve's plate
-    pressed (|x - xc| <= D/4 and D/2 <= |y - yc| <= (D/2 + sleeve_outer/2)/2). Not the whole ring: the soil the
-    punch and plate push aside heaves round the plate, and that rim, standing at the plate's edge, overhangs S
-    by a grain radius plus the probe (up to 10 mm at r = 5 mm), so a band out to the plate's edge reads it
-    (README, issue 5: the pressed ring). The opening: the connected cells below the
-    subsided level z_open = z_surface - h1 by more than `cut` (default one probe radius: the grain-scale
-    roughness; `./holes rings` reports how L0 and L1 move with it), grown from
-    the deepest cell within D/2 of the expected centre. L2: scanning down from z_open in steps dz, the
-    region the probe reaches below z (grown from that deepest cell) until its inscribed diameter is no
-    more than `diameter_min`, interpolated between steps. An opening whose centroid and deepest point both
-    lie more than D/2 from (xc, yc) is not this punch's hole (e.g. the hole is buried and the region found
-    is a trough beside it): the hole is reported not found, with L0, L1, L2 and l_H NaN, so it fails every
-    criterion and no mean takes a number that does not describe it. An opening smeared along the travel
-    whose bottom is where the punch went down is the punch's hole, wherever its centroid lies.
+    h1: subsided_level. The opening: the cells the probe reaches more than one probe radius (the grain-scale
+    roughness) below the subsided level z_open = z_surface - h1, grown from the deepest cell within D/2 of
+    (xc, yc); it finds the hole, it does not size it. L0, L1: the caliper (caliper.read_opening) with `jaw`
+    centred `below` mm under z_open, put in at the centroid of the hole's section at L2 (its axis, robust to
+    where its floor happens to be deepest). L2: scanning down from z_open in steps dz, the
+    region the probe reaches below z (grown from that deepest cell) until its inscribed diameter is no more than
+    `diameter_min`, interpolated between steps. An opening whose centroid and deepest point both lie more than
+    D/2 from (xc, yc) is not this punch's hole (e.g. the hole is buried and the region found is a trough beside
+    it): the hole is reported not found, with L0, L1, L2 and l_H NaN, so it fails every criterion and no mean
+    takes a number that does not describe it. An opening smeared along the travel whose bottom is where the
+    punch went down is the punch's hole, wherever its centroid lies.
 
     The hole's centre x (for the spacing C, §4.2's "centre distance of adjacent holes") is the centroid of its
     section at the effective depth L2, where the seedling's root ball sits, so C is the plant spacing. The
     opening's centroid is not: a wall the disk drags up on one side moves it a punch radius or more."""
     step = xs[1] - xs[0]
     X, Y = np.meshgrid(xs, ys, indexing="ij")
-    lo, hi = h1_band(D, sleeve_outer)
-    side = (np.abs(X - xc) <= D / 4) & (np.abs(Y - yc) >= lo) & (np.abs(Y - yc) <= hi)
-    h1 = z_surface - float(np.nanmedian(S[side]))
+    h1 = subsided_level(S, xs, ys, z_surface, xc, yc, D, sleeve_outer)
     z_open = z_surface - h1
     near = np.hypot(X - xc, Y - yc) <= D / 2
     Sn = np.where(near & np.isfinite(S), S, np.inf)
     seed = np.unravel_index(np.argmin(Sn), S.shape)
-    below = np.where(np.isfinite(S), S, -np.inf)
-    opening = grow(below < z_open - (probe if cut is None else cut), seed)
+    below_ = np.where(np.isfinite(S), S, -np.inf)
+    opening = grow(below_ < z_open - probe, seed)
+    x0, y0 = float(X[seed]), float(Y[seed])
     if not opening.any():
-        return HoleMeasure(xc, h1, 0.0, 0.0, 0.0, z_surface - float(S[seed]), z_open)
+        return HoleMeasure(xc, h1, 0.0, 0.0, 0.0, z_surface - float(S[seed]), z_open, x0=x0, y0=y0)
     x_open, y_open = float(X[opening].mean()), float(Y[opening].mean())       # the opening's centroid
     deepest = np.unravel_index(np.argmin(np.where(opening, S, np.inf)), S.shape)
     if min(np.hypot(x_open - xc, y_open - yc), np.hypot(X[deepest] - xc, Y[deepest] - yc)) > D / 2:
         return HoleMeasure(xc, h1, np.nan, np.nan, np.nan, z_surface - float(S[seed]), z_open,
-                           (np.nan,) * len(DEPTHS), found=False)
-    L0, L1 = opening_lengths(S, seed, z_open, probe if cut is None else cut, step, probe, D / 2)
+                           (np.nan,) * len(DEPTHS), found=False, x0=x0, y0=y0)
     prev_z, prev_d = z_open, inscribed_diameter(opening, step, probe)
     z = z_open
     L2 = z_open - float(S[seed])
     while z > S[seed]:
         z -= dz
-        d = inscribed_diameter(grow(below < z, seed), step, probe)
+        d = inscribed_diameter(grow(below_ < z, seed), step, probe)
         if d <= diameter_min:
             frac = (prev_d - diameter_min) / (prev_d - d) if np.isfinite(prev_d) and prev_d > d else 1.0
             L2 = z_open - (prev_z - frac * dz)
             break
         prev_z, prev_d = z, d
-    x_centre = float(X[grow(below <= z_open - L2, seed)].mean())      # holds the seed: L2 <= z_open - S[seed]
-    return HoleMeasure(x_centre, h1, L0, L1, L2, z_surface - float(S[seed]), z_open,
-                       tuple(length_at_depth(below, seed, z_surface - H, step, probe) for H in DEPTHS))
+    section = grow(below_ <= z_open - L2, seed)                        # holds the seed: L2 <= z_open - S[seed]
+    x0, y0 = float(X[section].mean()), float(Y[section].mean())
+    reading = caliper_reading(grains, x0, y0, z_open, jaw, below, probe, D)
+    return HoleMeasure(x0, h1, reading.L0, reading.L1, L2, z_surface - float(S[seed]), z_open,
+                       tuple(length_at_depth(below_, seed, z_surface - H, step, probe) for H in DEPTHS),
+                       x0=x0, y0=y0, ahead=reading.ahead, behind=reading.behind)
+
+
+def caliper_reading(grains, x0: float, y0: float, z_open: float, jaw: Jaw, below: float, probe: float,
+                    D: float):
+    """The caliper's reading (caliper.read_opening) of the hole whose jaws go in at (x0, y0), `below` mm
+    under the subsided level z_open, with `jaw` sized for grains of radius `probe`."""
+    pos, rad = grains
+    width, height = jaw.size(probe)
+    z = z_open - below
+    near_pos, near_rad = near_hole(pos, rad, x0, y0, z - height / 2 - 2 * probe)
+    return read_opening(near_pos, near_rad, x0, y0, z, width, height, D / 4)
 
 
 def side_profile(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, r_max: float, dr: float = 2.0):
@@ -266,6 +225,12 @@ def side_profile(S, xs, ys, z_surface: float, xc: float, yc: float, D: float, r_
     return (edges[:-1] + edges[1:]) / 2, depth
 
 
+def chord(mask_line, step: float) -> float:
+    """A chord on one grid line of a region: from its first cell to its last."""
+    idx = np.flatnonzero(mask_line)
+    return float((idx[-1] - idx[0] + 1) * step) if len(idx) else 0.0
+
+
 def length_at_depth(below, seed, z: float, step: float, probe: float) -> float:
     """The hole's length along the travel at level z (Table 1's l_H): the caliper chord along x through the
     middle of the region the probe reaches below z (grown from the hole's deepest cell), plus the probe's
@@ -279,11 +244,11 @@ def length_at_depth(below, seed, z: float, step: float, probe: float) -> float:
 
 def measure_state(pos_mm, radius_mm, initial_pos_mm, initial_radius_mm, width: float, hole_x, D: float,
                   sleeve_outer: float, diameter_min: float, cell: float = 1.0, probe: float | None = None,
-                  band: tuple | None = None):
+                  band: tuple | None = None, **caliper):
     """Every hole of a strip (positions in mm, strip 0 <= y <= width, holes expected at `hole_x` on its
     centreline): a list of HoleMeasure and the undisturbed surface level (the median probed surface of the
     bed before the disk, walls' cells left out, and only within `band` = (y_lo, y_hi) if given: a graded bed's
-    fine zone). The probe defaults to the mean grain radius; spacing C is the difference of consecutive
+    fine zone); `caliper`: measure_hole's jaw and level. The probe defaults to the mean grain radius; spacing C is the difference of consecutive
     centres (measure_hole: each at the hole's effective depth)."""
     probe = float(np.mean(radius_mm)) if probe is None else probe
     x_lo, x_hi = float(np.min(initial_pos_mm[:, 0])), float(np.max(initial_pos_mm[:, 0]))
@@ -294,5 +259,6 @@ def measure_state(pos_mm, radius_mm, initial_pos_mm, initial_radius_mm, width: f
     inner = np.ix_((xs > x_lo + margin) & (xs < x_hi - margin), (ys > y_lo + margin) & (ys < y_hi - margin))
     z_surface = float(np.nanmedian(probed_surface(initial_pos_mm, initial_radius_mm, xs, ys, probe)[inner]))
     S = probed_surface(pos_mm, radius_mm, xs, ys, probe)
-    return [measure_hole(S, xs, ys, z_surface, xc, width / 2, D, sleeve_outer, probe, diameter_min)
-            for xc in hole_x], z_surface, (xs, ys, S)
+    grains = (np.asarray(pos_mm, float), np.asarray(radius_mm, float))
+    return [measure_hole(S, xs, ys, z_surface, xc, width / 2, D, sleeve_outer, probe, diameter_min, grains,
+                         **caliper) for xc in hole_x], z_surface, (xs, ys, S)

@@ -8,23 +8,22 @@ datum (plate_depths). h1 is the median of the
 probed surface on the inner half of the ring, D/2 ... (D/2 + outer radius)/2 (metrology.measure_hole): the rim
 the punch and plate heave round the plate overhangs the probed surface over the outer half.
 
-The opening's edges (L0, L1) are where the wall crosses the level `cut` below the subsided level −h1 (one probe
-radius by default, the grain-scale roughness of the pressed ring) or turns flat below it (metrology.wall_edges).
-cut.csv gives each hole's L0, L1 and L2 at 0 ... 2 probe radii, so the measure's dependence on that level is a
-number, not a caveat.
+The openings L0 and L1 are caliper readings at a level below the subsided level −h1 (caliper.py). levels.csv
+gives each hole's L0, L1 and L0's split ahead of and behind its axis at 0, 5, 10 and 20 mm below −h1,
+so how much the answer hangs on the level is a number per soil, not a caveat (levels_summary.csv, levels-*.png).
 """
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from analysis.core.io import atomic_csv, stamp
 from analysis.core.config import load_seedling
 from analysis.holes.measure import hole_centres, hole_tool, measure_run
-from analysis.holes.metrology import h1_band, measure_hole, side_profile
-
-CUTS = (0.0, 0.5, 1.0, 1.5, 2.0)      # the opening's cut below −h1, in probe radii (1: the rule)
+from analysis.holes.caliper import JAW, LEVEL_BELOW, LEVELS
+from analysis.holes.metrology import caliper_reading, h1_band, side_profile
 
 
 def plate_depths(cfg: dict, summary: dict, z_surface: float) -> list[float]:
@@ -57,40 +56,83 @@ def profiles(measured) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def cut_levels(measured, seedling_path="configs/seedling.toml") -> pd.DataFrame:
-    """One row per hole and cut (CUTS, in probe radii below −h1): the hole's L0, L1 and L2 measured with the
-    opening cut there (metrology.measure_hole), mm. `measured`: a run's measure_run()."""
-    table, holes, z_surface, (xs, ys, S), (cfg, summary, _) = measured
-    D, outer = hole_tool(cfg)
-    seedling = load_seedling(seedling_path)
+def level_table(measured) -> pd.DataFrame:
+    """One row per hole and level (caliper.LEVELS, mm below the subsided level −h1): the caliper's L0 and L1
+    there and L0's split ahead of (+x, the travel) and behind the hole's axis (its section's centroid at L2), mm. `measured`: a run's
+    measure_run()."""
+    table, holes, z_surface, _, (cfg, summary, state) = measured
+    D, _ = hole_tool(cfg)
+    grains = (state["pos"] * 1000, state["radius"] * 1000)
     rows = []
-    for row, xc in zip(table.itertuples(), hole_centres(summary)[summary.get("lead_in", 0):]):
-        for k in CUTS:
-            h = measure_hole(S, xs, ys, z_surface, xc, cfg["bed_size_mm"][1] / 2, D, outer, row.probe,
-                             seedling.l2_diameter, cut=k * row.probe)
-            rows.append({"run": summary["id"], "soil": cfg["soil"]["name"], "hole": row.hole, "probe": row.probe,
-                         "cut_probes": k, "cut": k * row.probe, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2})
+    for row, h in zip(table.itertuples(), holes):
+        for below in LEVELS:
+            r = caliper_reading(grains, h.x0, h.y0, h.z_open, JAW, below, row.probe, D) if h.found else None
+            rows.append({"run": summary["id"], "soil": cfg["soil"]["name"], "hole": row.hole, "below": below,
+                         **{k: getattr(r, k) if r else float("nan") for k in ("L0", "L1", "ahead", "behind")}})
     return pd.DataFrame(rows)
 
 
-def cut_slopes(cuts: pd.DataFrame) -> pd.DataFrame:
-    """Per hole, how far L0, L1 and L2 move (mm) when the cut goes from 0.5 to 1.5 probe radii, the rule ± half
-    a probe radius."""
-    wide = cuts.set_index(["run", "soil", "hole", "cut_probes"])[["L0", "L1", "L2"]].unstack("cut_probes")
-    return pd.DataFrame({m: wide[(m, 1.5)] - wide[(m, 0.5)] for m in ("L0", "L1", "L2")}).reset_index()
+def level_summary(levels: pd.DataFrame) -> pd.DataFrame:
+    """Per soil and level: the holes' mean and SD of L0, L1 and L0's split, and how far each moves per mm of
+    level against the level the runs read at (caliper.LEVEL_BELOW), from the least-squares slope over LEVELS."""
+    g = levels.groupby(["soil", "below"], sort=False)[["L0", "L1", "ahead", "behind"]]
+    out = g.mean().add_suffix("_mean").join(g.std().add_suffix("_sd")).join(g.size().rename("holes")).reset_index()
+    slopes = {}
+    for soil, s in levels.groupby("soil", sort=False):
+        for m in ("L0", "L1", "ahead", "behind"):
+            v = s[["below", m]].dropna()
+            slopes[(soil, m)] = float(np.polyfit(v.below, v[m], 1)[0]) if v.below.nunique() > 1 else np.nan
+    for m in ("L0", "L1", "ahead", "behind"):
+        out[f"{m}_per_mm"] = [slopes[(soil, m)] for soil in out.soil]
+    return out
 
 
-def run(folders, out: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """rings.csv, rings.png and cut.csv in `out`: every hole of the given finished runs."""
+def plot_levels(levels: pd.DataFrame, out: Path, command: str) -> list[Path]:
+    """One picture per soil: L0 (with its split ahead and behind) and L1 against the level, each hole a thin
+    line, the mean bold."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    paths = []
+    for soil, s in levels.groupby("soil", sort=False):
+        fig, axes = plt.subplots(1, 2, figsize=(9, 3.6), sharey=True)
+        for ax, metrics in zip(axes, (("L0", "ahead", "behind"), ("L1",))):
+            for m, colour in zip(metrics, ("C0", "C2", "C3")):
+                for _, h in s.groupby(["run", "hole"]):
+                    ax.plot(h[m], h.below, "-", color=colour, lw=0.4, alpha=0.5)
+                mean = s.groupby("below")[m].mean()
+                ax.plot(mean.values, mean.index, "o-", color=colour, lw=2, label=f"{m} (mean)")
+            ax.axhline(LEVEL_BELOW, color="k", lw=0.8, ls="--", label="the runs' reading level")
+            ax.set(xlabel="mm", title=f"{soil}: " + ("L0 and its split about the hole's axis" if len(metrics) > 1
+                                                     else "L1"))
+            ax.legend(fontsize=7)
+        axes[0].set_ylabel("level below the subsided level (−h1), mm")
+        axes[0].invert_yaxis()
+        fig.text(0.01, 0.01, f"`{command}`", fontsize=6, color="0.4")
+        fig.tight_layout()
+        path = out / f"levels-{soil}.png"
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
+def run(folders, out: Path, command: str | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """rings.csv, rings.png, levels.csv, levels_summary.csv and levels-<soil>.png in `out`: every hole of the
+    given finished runs."""
     measured = [measure_run(f) for f in folders]
     table = pd.concat([profiles(m) for m in measured], ignore_index=True).round(2)
-    cuts = pd.concat([cut_levels(m) for m in measured], ignore_index=True).round(2)
+    levels = pd.concat([level_table(m) for m in measured], ignore_index=True)
     out.mkdir(parents=True, exist_ok=True)
-    command = "./holes rings " + " ".join(Path(f).name for f in folders)
+    command = command or "./holes rings " + " ".join(Path(f).name for f in folders)
     atomic_csv(table, out / "rings.csv", stamp(command) + "; mm below the undisturbed surface, r from the hole's axis")
-    atomic_csv(cuts, out / "cut.csv", stamp(command) + "; mm; the opening cut `cut` below −h1 (1 probe: the rule)")
+    atomic_csv(levels.round(2), out / "levels.csv", stamp(command) + f"; mm; the caliper ({JAW.name}) `below` mm "
+               "under the subsided level; ahead/behind: L0's parts either side of the hole's axis")
+    atomic_csv(level_summary(levels).round(3), out / "levels_summary.csv",
+               stamp(command) + "; mm per soil and level; *_per_mm: the move per mm of level (least squares)")
     plot(table, out / "rings.png", command)
-    return table, cuts
+    plot_levels(levels, out, command)
+    return table, levels
 
 
 def plot(table: pd.DataFrame, path: Path, command: str):
