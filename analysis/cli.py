@@ -41,7 +41,18 @@ def cmd_params(args) -> int:
 
 def cmd_calibrate(args) -> int:
     from analysis.soil import calibrate
+    from analysis.core.bed_spec import check_size
+    from analysis.core.config import check_lateral, load_resolution, load_soil
     lo, hi = args.cohesion_range
+    try:                                    # every input before any bed or cone scene
+        load_soil(args.soil), load_resolution(args.resolution), check_lateral(args.lateral)
+        check_size([float(v) / 1000 for v in args.size.split(",")])
+    except ConfigError as e:
+        print(f"calibrate: {e}", file=sys.stderr)
+        return 2
+    except ValueError:
+        print(f"calibrate: --size {args.size!r}: allowed three numbers length,width,depth in mm", file=sys.stderr)
+        return 2
     try:
         calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, args.seeds, args.cone_speed,
                       args.threads, args.lateral, args.workers)
@@ -96,7 +107,7 @@ def cmd_rings(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from analysis.holes import compare_job
+    from analysis.batch import compare_job
     try:
         return compare_job.run(args.preset, args.soils.split(","), args.seeds,
                                args.threads, args.workers, args.runs_dir, args.bed_dir, args.out, args.no_run, args.kept,
@@ -107,7 +118,7 @@ def cmd_compare(args) -> int:
 
 
 def cmd_calibrate_machine(args) -> int:
-    from analysis.holes import machine
+    from analysis.batch import machine
     try:
         return machine.run(args.design, args.workers, args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run)
     except ConfigError as e:
@@ -260,7 +271,8 @@ def with_earlier(here, out: Path, key: str):
 
 
 SHARE_HELP = ("(default: shared out by the cases: side by side on one thread each when they fill the cores evenly or "
-              "their far field sleeps (then as many at a time as finish soonest, up to two per core), else one at a time on every core; analysis/batch/scenes.py share_cores)")
+              "their far field sleeps (then as many at a time as finish soonest, up to two per core), else one at a "
+              "time on every core; analysis/core/runner.py share_cores)")
 
 
 def scene_batch_options(p, out_help: str):
@@ -398,7 +410,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="presets: the reference preset (default validation_surface); every preset in "
                    "results/comparison.csv with its calibrated machine is set against it")
     p.add_argument("--run", help="collider, profile: a run folder with a checkpoint")
-    p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000, help="collider, profile: steps per setting (default 3000)")
+    p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000,
+                   help="collider, profile: steps per setting (default 3000)")
     p.add_argument("--from-start", action="store_true",
                    help="collider, profile: the run's first --steps from its bed (any run's folder), not its checkpoint")
     scene_batch_options(p, "ladder, economies, convergence, presets, speed-vs-error: table folder (default "
@@ -407,11 +420,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="ladder, economies, convergence: tabulate the finished cases only; run nothing")
     p.set_defaults(func=cmd_bench)
     p = sub.add_parser("pepper", help="duck-beak mechanism (seed 000): goal-attainment design and results/pepper/")
-    p.add_argument("--starts", type=option("--starts", STARTS), default=6, help="optimiser starts: Table 2's initial column + random")
+    p.add_argument("--starts", type=option("--starts", STARTS), default=6,
+                   help="optimiser starts: Table 2's initial column + random")
     p.add_argument("--out", help="output folder (default results/pepper)")
     p.set_defaults(func=cmd_pepper)
     p = sub.add_parser("pepper-frame", help="duck-beak mechanism: infer the frame the text omits from its stated results")
-    p.add_argument("--screen", type=option("--screen", SCREEN), default=8000, help="random frames scored per case (the best 12 are fitted)")
+    p.add_argument("--screen", type=option("--screen", SCREEN), default=8000,
+                   help="random frames scored per case (the best 12 are fitted)")
     p.add_argument("--workers", type=option("--workers", WORKERS), default=2, help="cases fitted side by side (processes)")
     p.add_argument("--out", help="output folder (default results/pepper)")
     p.set_defaults(func=cmd_pepper_frame)

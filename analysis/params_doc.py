@@ -7,8 +7,8 @@ it cannot drift from them (`./holes params` writes it; tests/test_config.py chec
 """
 from __future__ import annotations
 
-from analysis.core.config import (DISK_FIELDS, PRESET_FIELDS, PRESET_OPTIONAL, RESOLUTION_FIELDS, ROOT, SEED, SEEDLING_FIELDS, SLEEVE_FIELDS,
-                             SOIL_FIELDS, SOILS, Field, read_toml)
+from analysis.core.config import (DISK_FIELDS, PRESET_FIELDS, PRESET_OPTIONAL, RESOLUTION_FIELDS, ROOT, SEED,
+                                  SEEDLING_FIELDS, SLEEVE_FIELDS, SOIL_FIELDS, SOILS, Field, read_toml)
 
 PATH = ROOT / "configs/README.md"
 HEAD = """# Config parameters
@@ -43,8 +43,8 @@ def table(schema: dict[str, Field], columns: dict[str, dict], sources: dict | No
 
 
 def run_fields() -> list[str]:
-    """What a run can change (scripts/disk.py's options) and which of them a study can vary (analysis/batch/scenes.py)."""
-    from analysis.batch.scenes import PLAIN
+    """What a run can change (scripts/disk.py's options) and which of them a study can vary (analysis/core/runner.py)."""
+    from analysis.core.runner import PLAIN
     from analysis.core.run_spec import MODES, RUN_FIELDS, arguments
     schema = {**PRESET_FIELDS, **RUN_FIELDS,
               "soil": Field(kind=str, meaning="the soil: " + " | ".join(SOILS)),

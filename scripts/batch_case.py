@@ -16,7 +16,7 @@ if Path(sys.executable) != PYTHON and PYTHON.exists() and not os.environ.get("HO
     os.execv(str(PYTHON), [str(PYTHON), str(ROOT / "scripts/batch_case.py")])
 sys.path.insert(0, str(ROOT))
 
-from analysis.batch.scenes import scene_args  # noqa: E402
+from analysis.core.runner import scene_args  # noqa: E402
 from analysis.batch.study import case_from_table_line  # noqa: E402
 
 table, line = os.environ["YADE_BATCH"].rsplit(":", 1)

@@ -200,7 +200,8 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
             "porosity": n, "grain_density": grain_density, "wet_bulk_density": grain_density * (1 - n),
             "dry_bulk_density": grain_density * (1 - n) / (1 + soil.moisture),
             "target_dry_bulk_density": soil.bulk_density,
-            "whole_bed_dry_bulk_density": grain_density * float(np.sum(4 / 3 * np.pi * rad ** 3)) / (L * W * D) / (1 + soil.moisture), "surface_z": float(np.max(pos[:, 2] + rad)),
+            "whole_bed_dry_bulk_density": grain_density * float(np.sum(4 / 3 * np.pi * rad ** 3)) / (L * W * D)
+            / (1 + soil.moisture), "surface_z": float(np.max(pos[:, 2] + rad)),
             "settle_unbalanced": SETTLE_UNBALANCED, "steps": int(O.iter), "sim_time_s": O.time,
             "wall_s": time.time() - wall0, "threads": threads, "particle_steps": int(O.iter) * int(len(rad))}
     if res.graded:

@@ -24,7 +24,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import CONE_DEPTH, CONE_FIELDS, ROOT, ConfigError, load_soil, parse_overrides, soil_with  # noqa: E402
+from analysis.core.config import (CONE_DEPTH, CONE_FIELDS, ROOT, SOIL_FIELDS, ConfigError, load_soil,  # noqa: E402
+                                  parse_overrides, soil_with)
 from analysis.core.io import atomic_write  # noqa: E402
 
 S313_BASE_DIAMETER = 0.01283     # m
@@ -108,6 +109,8 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     first_bonds = None
     while O.iter < n_steps:
         O.run(20, True)
+        if O.iter == 20:                          # the bed's bonds exist; the cone is still above the surface
+            part.bond_new_contacts(O, soil)
         record()
         if damage and first_bonds is None:        # the bed's bonds, made at the first step, before the cone arrives
             first_bonds = bonded_pairs(O, n_particles)
@@ -124,7 +127,8 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     inertial = (speed / (2 * Rc)) * 2 * meta["radius"] / math.sqrt(p_mean / meta["grain_density"])
     summary = {"bed": meta["key"], "soil": soil.name, "cohesion_pa": soil.normal_cohesion, "cone_scale": cone_scale,
                "cone_diameter_m": 2 * Rc, "cone_to_particle": 2 * Rc / (2 * meta["radius"]), "speed": speed,
-               "cone_index_pa": ci, "lateral": lateral, "inertial_number": inertial, "particles": n_particles, "steps": int(O.iter),
+               "cone_index_pa": ci, "lateral": lateral, "inertial_number": inertial, "particles": n_particles,
+               "steps": int(O.iter),
                "dt": O.dt, "wall_s": time.time() - wall0, "threads": threads,
                "particle_steps_per_s": n_particles * O.iter / (time.time() - wall0)}
     out_dir = out_dir or ROOT / "results/cone"
@@ -182,6 +186,8 @@ def main(argv=None) -> int:
     try:
         for key, value in (("cone_scale", a.cone_scale), ("speed", a.cone_speed)):  # before the bed is settled
             CONE_FIELDS[key].check(f"cone.{key}", value)
+        if a.cohesion is not None:
+            SOIL_FIELDS["normal_cohesion"].check("cone.cohesion", a.cohesion)
         CONE_DEPTH.check("cone.depth", a.depth)
         summary = run(bed.bed_from_args(a), a.soil, a.cone_scale, a.cone_speed, a.cohesion, a.threads, a.depth / 1000,
                       out_dir=Path(a.out) if a.out else None, overrides=parse_overrides(a.set), damage=a.damage)

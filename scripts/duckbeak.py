@@ -32,8 +32,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import (ROOT, SEED, THREADS, CommandLine, ConfigError, Field, as_dict, check_table, load_resolution, load_soil,  # noqa: E402
-                             option, parse_overrides, read_toml)
+from analysis.core.config import (ROOT, SEED, THREADS, CommandLine, ConfigError, Field, as_dict,  # noqa: E402
+                                  check_table, load_resolution, load_soil, option, parse_overrides, read_toml)
 from analysis.core.bed_spec import BED_DIR  # noqa: E402
 from analysis.core.io import atomic_write, provenance  # noqa: E402
 from analysis.core.kinematics import TIP_SPHERE_RATIO  # noqa: E402
@@ -181,7 +181,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     t_pass = ps["t_out"] - ps["t_in"]
     n_pass, n_relax = int(t_pass / O.dt) + 1, int(scene["relax"] / O.dt)
     top_speed = float(np.max(np.abs(pepper.motion(link, omega * np.linspace(ps["t_in"], ps["t_out"], 50), omega)[1]
-                                    + params["travel_sign"] * speed))) * mm                          # P's fastest, ground frame (m/s)
+                                    + params["travel_sign"] * speed))) * mm      # P's fastest, ground frame (m/s)
     log(f"duckbeak {params['id']}: {len(grain_ids)} grains, bed {meta['key']}, pass {1000 * t_pass:.0f} ms "
         f"({n_pass} steps of {O.dt:.2e} s) + settling for up to {n_relax} steps; tip to {ps['depth']:.1f} mm")
     vmax, v_now = 0.0, math.inf
@@ -199,7 +199,8 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     settled = v_now <= scene["settled_speed"]
     wall = time.time() - wall0
     save_state(out, grain_ids, z_surface, data, "t_s,ref_x_m,tip_z_m,psi_deg,planter_fx_n,planter_fz_n", st["rows"])
-    summary = {"id": params["id"], "provenance": provenance(threads), "scene": "duckbeak", "soil": soil.name, "preset": scene["resolution"],
+    summary = {"id": params["id"], "provenance": provenance(threads), "scene": "duckbeak", "soil": soil.name,
+               "preset": scene["resolution"],
                "bed": meta["key"], "particles": len(grain_ids), "steps": int(O.iter), "dt": O.dt, "wall_s": wall,
                "threads": threads, "particle_steps_per_s": len(grain_ids) * O.iter / wall, "sim_time_s": O.time,
                "z_surface_m": z_surface, "holes": 1, "lead_in": 0,

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from analysis.core.config import ROOT
 from analysis.core.io import atomic_write, provenance
+from analysis.core.kinematics import blunt_tip
 
 SEGMENTS = 16               # facets round a punch or a sleeve
 GUARD_EVERY = 200           # steps between stability checks
@@ -24,9 +25,7 @@ def punch_surface(u_top: float, u_tip: float, radius: float, h: float, a: float)
     """Triangles of a cylinder-and-cone punch along its axis u (v, w across it), in mm: the cylinder of
     `radius` from u_top to the cone's base at u_tip - h, the cone to the apex u_tip, cut where the inscribed
     tip sphere of radius `a` (centre u_sphere) takes over. Returns (triangles, (u_sphere, a))."""
-    half = math.atan2(radius, h)
-    u_sphere = u_tip - a / math.sin(half)
-    u_cut = u_tip - (a / math.sin(half)) * math.cos(half) ** 2
+    _, u_sphere, u_cut = blunt_tip(radius, h, u_tip, a)
     r_cut = radius * (u_tip - u_cut) / h
     top, edge, cut = circle(u_top, radius), circle(u_tip - h, radius), circle(u_cut, r_cut)
     tris = band(top, edge) + band(edge, cut) + [(cut[i], cut[(i + 1) % SEGMENTS], (u_cut, 0.0, 0.0))
@@ -136,7 +135,8 @@ def as_tool(ids: list) -> list:
 
 def guard(grain_ids, meta: dict, z_surface: float, speed_limit: float, ke_limit: float) -> float:
     """The stability guard: raises RuntimeError naming the cause on a non-finite grain, a grain out of the
-    bed's box (ESCAPE m beyond its walls and floor (a periodic strip's y: anywhere), ESCAPE_ABOVE m over its surface), a grain faster than
+    bed's box (ESCAPE m beyond its walls and floor (a periodic strip's y: anywhere), ESCAPE_ABOVE m over its
+    surface), a grain faster than
     `speed_limit` (m/s) or kinetic energy above `ke_limit` (J); else returns the fastest grain's speed."""
     from yade import O, utils
     L, W, _ = meta["size_m"]

@@ -93,3 +93,15 @@ def engines(damping: float, cohesion_on_new_contacts: bool, cohesion_now: bool =
 def contact_law(O):
     """The scene's cohesive-frictional law functor (it books the contacts' elastic energy)."""
     return next(e for e in O.engines if isinstance(e, InteractionLoop)).lawDispatcher.functors[0]
+
+
+def bond_new_contacts(O, soil):
+    """Call once the intact bonds exist (after the first step of a scene that bonds its settled contacts): every
+    contact made from now on, where the soil was disturbed, gets `new_contact_cohesion` of the intact bonds'
+    strength (YADE's Ip2 reads the material's cohesion when a contact forms; bonds made earlier keep theirs)."""
+    if soil.new_contact_cohesion == 1.0:
+        return
+    for m in O.materials:
+        if m.label == "soil":
+            m.normalCohesion = soil.new_contact_cohesion * soil.normal_cohesion
+            m.shearCohesion = soil.new_contact_cohesion * soil.shear_cohesion

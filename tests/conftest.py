@@ -10,10 +10,6 @@ sys.path.insert(0, str(ROOT))
 from analysis.core.config import load_disk  # noqa: E402
 
 
-def pytest_configure(config):
-    config.addinivalue_line("markers", "scene: starts a YADE scene (left out by ./holes test --fast)")
-
-
 @pytest.fixture(scope="session")
 def disk():
     """The seed 001 disk (R0 = 70, L3 = 121, N = 6, D = 50, h = 20, penetration 70 mm)."""

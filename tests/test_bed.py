@@ -179,7 +179,8 @@ def test_tiled_bed_is_its_packing_repeated_round_the_same_centre(periodic_bed, t
     assert np.all((out["pos"][:, :2] >= 0) & (out["pos"][:, :2] < (tiles * L, tiles * W)))
     np.testing.assert_allclose(contacts(out["pos"], out["radius"], (tiles * L, tiles * W)),
                                np.repeat(contacts(src["pos"], src["radius"], (L, W)), tiles ** 2), atol=1e-12)
-    near = lambda pos, c: np.sort(np.linalg.norm(pos[:, :2] - c, axis=1))[:20]
+    def near(pos, c):
+        return np.sort(np.linalg.norm(pos[:, :2] - c, axis=1))[:20]
     np.testing.assert_allclose(near(out["pos"], (tiles * L / 2, tiles * W / 2)), near(src["pos"], (L / 2, W / 2)),
                                atol=1e-12)
 

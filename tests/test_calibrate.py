@@ -56,7 +56,8 @@ def test_cone_checks_config_is_checked_before_anything_runs(tmp_path):
                           ('check = "ratio"\nsoil = "peat"', "peat"),
                           ('check = "width"\nlateral = "open"', r"bed.lateral = 'open': allowed walls, periodic"),
                           ('check = "tiled"\ntiles = 2', r"case 1.tiles = 2: only a periodic bed"),
-                          ('check = "width"\ncohesion = -5.0', r"case 1.cohesion = -5.0 is out of range: allowed \[0, 1e\+07\] Pa")):
+                          ('check = "width"\ncohesion = -5.0',
+                           r"case 1.cohesion = -5.0 is out of range: allowed \[0, 1e\+07\] Pa")):
         path = tmp_path / "checks.toml"
         path.write_text(base + "[[case]]\n" + case + "\n")
         with pytest.raises(ConfigError, match=message):
@@ -66,7 +67,8 @@ def test_cone_checks_config_is_checked_before_anything_runs(tmp_path):
 def test_cone_checks_summary_states_the_width_change_and_the_scatter():
     import pandas as pd
     from analysis.soil import cone_checks
-    common = dict(soil="clay", resolution="quick", lateral="periodic", target_kpa=450.0, dry_density_core=1270, core_error_percent=3.2,
+    common = dict(soil="clay", resolution="quick", lateral="periodic", target_kpa=450.0, dry_density_core=1270,
+                  core_error_percent=3.2,
                   cone_diameter_mm=38.49)
     table = pd.DataFrame([dict(check="replicate", seed=1, size_mm="200x200x280", cone_index_kpa=440.0, **common),
                           dict(check="replicate", seed=2, size_mm="200x200x280", cone_index_kpa=480.0, **common),

@@ -41,7 +41,8 @@ def test_a_scene_refuses_zero_threads_before_it_plans():
         plan_from_argv(["--soil", "clay", "--preset", "test", "--threads", "0"])
 
 
-@pytest.mark.parametrize("option, value", [("--cone-speed", "-1"), ("--cone-scale", "0"), ("--depth", "0")])
+@pytest.mark.parametrize("option, value", [("--cone-speed", "-1"), ("--cone-scale", "0"), ("--depth", "0"),
+                                           ("--cohesion", "-5"), ("--cohesion", "nan")])
 def test_the_cone_checks_its_own_numbers_before_settling_a_bed(tmp_path, option, value):
     r = subprocess.run([sys.executable, str(ROOT / "scripts/cone.py"), "--soil", "clay", "--bed-dir", str(tmp_path),
                         option, value], capture_output=True, text=True, timeout=120, cwd=ROOT)
@@ -53,3 +54,35 @@ def test_one_slip_range_for_the_disk_config_and_a_run():
     from analysis.core.config import DISK_FIELDS
     from analysis.core.run_spec import RUN_FIELDS
     assert DISK_FIELDS["slip"] is RUN_FIELDS["slip"]
+
+
+@pytest.mark.parametrize("argv", [["compare", "--kep", "--no-run"], ["compare", "--pre", "quick", "--no-run"]])
+def test_an_abbreviated_option_is_refused(argv, capsys):
+    """argparse would take `--kep` for `--kept`: every command names its options in full."""
+    with pytest.raises(SystemExit) as e:
+        cli.main(argv)
+    assert e.value.code == 2 and "unrecognized arguments" in capsys.readouterr().err
+
+
+def test_a_scene_refuses_an_abbreviated_option():
+    from analysis.core.run_spec import plan_from_argv
+    with pytest.raises(SystemExit) as e:
+        plan_from_argv(["--soil", "clay", "--preset", "test", "--speed", "3"])
+    assert e.value.code == 2
+
+
+@pytest.mark.parametrize("argv, field", [(["calibrate", "--soil", "peat"], "peat"),
+                                         (["calibrate", "--soil", "clay", "--resolution", "huge"], "huge"),
+                                         (["calibrate", "--soil", "clay", "--size", "450,450"], "size"),
+                                         (["calibrate", "--soil", "clay", "--size", "a,b,c"], "--size")])
+def test_calibrate_refuses_bad_soils_resolutions_and_sizes_with_exit_2(argv, field, capsys):
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert field in err and "allowed" in err and "Traceback" not in err, err
+
+
+def test_a_stored_cone_run_at_zero_cohesion_is_found_without_dividing_by_it():
+    """The default cohesion range starts at 0 Pa: looking a run up there must not divide by zero."""
+    from analysis.soil.calibrate import same_cohesion
+    assert same_cohesion({"cohesion_pa": 0.0}, 0.0) and not same_cohesion({"cohesion_pa": 5000.0}, 0.0)
+    assert same_cohesion({"cohesion_pa": 48000.0}, 48000.0 * (1 + 1e-4))

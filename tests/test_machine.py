@@ -1,10 +1,10 @@
-"""The machine's calibration on clay (analysis/holes/machine.py): the fit through the design's runs, what it refuses."""
+"""The machine's calibration on clay (analysis/batch/machine.py): the fit through the design's runs, what it refuses."""
 import numpy as np
 import pandas as pd
 import pytest
 
 from analysis import cli
-from analysis.holes import machine
+from analysis.batch import machine
 from analysis.holes.compare import field_table
 from analysis.core.config import ROOT, ConfigError
 

@@ -12,7 +12,7 @@ import pytest
 from analysis import cli
 from analysis.core.config import ROOT, ConfigError
 from analysis.core.io import read_table
-from analysis.batch.scenes import scene_args
+from analysis.core.runner import scene_args
 from analysis.batch.study import case_from_table_line, export_batch, load_study
 
 # one punch passage on the test strip, fast (fewer steps): studies here test the batch machinery

@@ -1,5 +1,5 @@
 """Parameter studies (`./holes study configs/studies/NAME.toml [MORE.toml ...]`): a grid or a list of cases over run fields,
-each case one disk scene (analysis/batch/scenes.py), one tidy table per study in results/studies/NAME.csv.
+each case one disk scene (analysis/core/runner.py), one tidy table per study in results/studies/NAME.csv.
 
 A study file:
     [study]   name, description; optionally against = PRESET: a sensitivity, each case's holes set beside the
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.batch.scenes import finished, plan_case, run_all, say, scene_args
+from analysis.core.runner import finished, plan_case, run_all, say, scene_args
 from analysis.holes.compare import RESIDUAL_LIMIT, VALIDATED, residual_pct, shift
 from analysis.core.config import ROOT, ConfigError, load_criteria, load_preset, read_toml
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp

@@ -76,7 +76,7 @@ def check_tiles(tiles: int, lateral: str, where: str = "bed.tiles") -> int:
 
 def check_size(size) -> tuple:
     if len(size) != 3:
-        raise ConfigError(f"size = {size!r}: give length,width,depth in mm")
+        raise ConfigError(f"size = {size!r}: allowed three lengths, length,width,depth in mm")
     return tuple(SIZE_FIELDS[k].check(f"bed.{k}", v) for k, v in zip(SIZE_FIELDS, size))
 
 

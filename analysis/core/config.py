@@ -64,7 +64,12 @@ def positive(unit="mm", meaning="", kind=float) -> Field:
 
 class CommandLine(argparse.ArgumentParser):
     """argparse's parser, whose error is one line, `PROG: MESSAGE (--help lists the options)`, and exit code 2
-    (argparse's own prints the whole usage first)."""
+    (argparse's own prints the whole usage first); an option is named in full (`--speed` is not taken for
+    `--speed-kmh`), in every command and subcommand."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message):
         self.exit(2, f"{self.prog}: {message} ({self.prog} --help lists the options)\n")
@@ -201,7 +206,8 @@ def disk_from_dict(values: dict, where: str = "disk", name: str = "disk") -> Dis
     if v["h"] >= v["L3"]:
         raise ConfigError(f"{where}.h = {v['h']:g} is out of range: allowed (0, L3 = {v['L3']:g}) mm")
     if not v["speed_kmh_min"] <= v["speed_kmh_max"]:
-        raise ConfigError(f"{where}.speed_kmh_min = {v['speed_kmh_min']:g} must not exceed speed_kmh_max = {v['speed_kmh_max']:g}")
+        raise ConfigError(f"{where}.speed_kmh_min = {v['speed_kmh_min']:g} must not exceed speed_kmh_max = "
+                          f"{v['speed_kmh_max']:g}")
     return Disk(**v, name=name)
 
 
@@ -465,7 +471,10 @@ SOIL_FIELDS = {
     "normal_cohesion": Field(0.0, 1e8, unit="Pa", meaning="tensile bond strength per contact area"),
     "shear_cohesion": Field(0.0, 1e8, unit="Pa", meaning="shear bond strength per contact area"),
     "damping": Field(0.0, 0.9, meaning="YADE local damping in tool scenes"),
+    "new_contact_cohesion": Field(0.0, 1.0, meaning="the bond a contact made after disturbance gets, as a fraction "
+                                  "of the intact bonds' strength (1: moist soil re-adheres fully; 0: friction only)"),
 }
+SOIL_DEFAULTS = {"new_contact_cohesion": 1.0}     # optional in a soil config; a run's id leaves a default out
 SOILS = ("clay", "loam", "sand")
 
 
@@ -484,6 +493,7 @@ class Soil:
     bulk_density: float      # kg/m3, dry, Table 2
     cone_index: float        # Pa, mean over 0-150 mm, Table 2
     moisture: float          # mass fraction of water to dry soil, Table 2
+    new_contact_cohesion: float = 1.0   # fraction of the intact bonds' strength a new contact gets
 
     @property
     def wet_density(self) -> float:
@@ -523,7 +533,7 @@ def table2_row(name: str, where: str, path=TABLE2) -> dict:
 
 
 def soil_from_dict(name: str, values: dict, where: str) -> Soil:
-    v = check_table(where, values, SOIL_FIELDS)
+    v = check_table(where, values, SOIL_FIELDS, optional=SOIL_DEFAULTS)
     t = table2_row(name, where)
     return Soil(name=name, **v, bulk_density=1000 * t["bulk_density_g_cm3"],
                 cone_index=1000 * t["cone_index_kPa"], moisture=t["moisture_percent"] / 100)

@@ -14,16 +14,44 @@ from dataclasses import dataclass
 import numpy as np
 
 from analysis.core.config import ConfigError, Disk
-from analysis.holes.theory import punch_section
 
 TIP_SPHERE_RATIO = 0.2      # blunt tip: inscribed sphere radius / punch radius (scripts/disk_parts.py builds it)
 START_MARGIN_DEG = 3.0      # punch 0 starts this far before it first touches the surface
 STOP_MARGIN_DEG = 2.0       # the run stops this far after the last punch has left the soil
 
 
+def punch_section(disk: Disk, z: float = 0.0, n_cone: int = 32) -> np.ndarray:
+    """Outline (u, v) of the punch cut by the plane at lateral offset z from its centre plane, as a convex
+    polygon: u along the punch axis from the disk centre, v across it in the disk plane. Empty if |z| >= d."""
+    d, R, h = disk.d, disk.R, disk.h
+    z = abs(z)
+    if z >= d:
+        return np.empty((0, 2))
+    w = np.sqrt(d * d - z * z)                       # cylinder: strip of half-width w
+    u_end = R - h * z / d                            # cone radius d(R-u)/h falls to z here
+    u = np.linspace(R - h, u_end, n_cone)
+    wc = np.sqrt(np.maximum((d * (R - u) / h) ** 2 - z * z, 0.0))
+    upper = np.column_stack([np.r_[disk.R0, u], np.r_[w, wc]])
+    lower = upper[::-1] * [1, -1]
+    return np.vstack([upper, lower[1:]])           # the tip point (v = 0) appears once
+
+
 def rolling_rate(disk: Disk, speed: float, slip: float) -> float:
     """ω = v / (R(1 - δ)) in rad/s for v in mm/s (eq 1: the axis advances R(1-δ) per radian)."""
     return speed / (disk.R * (1.0 - slip))
+
+
+def blunt_tip(radius: float, h: float, u_tip: float, a: float) -> tuple[float, float, float]:
+    """The blunt tip of a cone of base `radius` and height `h` whose apex is at u_tip along its axis: the
+    inscribed sphere of radius `a` tangent to the cone's faces, and where it cuts the cone. Returns (the cone's
+    half-angle, the sphere's centre, the cut) along the axis; the scenes build it (scripts/parts.py), the
+    theory draws it (punch_outline).
+
+    >>> [round(float(v), 3) for v in blunt_tip(25.0, 20.0, 191.0, 5.0)]
+    [0.896, 184.597, 188.501]
+    """
+    half = float(np.arctan2(radius, h))
+    return half, u_tip - a / np.sin(half), u_tip - (a / np.sin(half)) * np.cos(half) ** 2
 
 
 def punch_outline(disk: Disk, tip_sphere: float = 0.0) -> np.ndarray:
@@ -32,9 +60,7 @@ def punch_outline(disk: Disk, tip_sphere: float = 0.0) -> np.ndarray:
     pts = punch_section(disk, 0.0, n_cone=8)
     if tip_sphere <= 0:
         return pts
-    half = np.arctan2(disk.d, disk.h)                      # cone half-angle at the tip
-    centre = disk.R - tip_sphere / np.sin(half)
-    u_cut = disk.R - (tip_sphere / np.sin(half)) * np.cos(half) ** 2
+    half, centre, u_cut = blunt_tip(disk.d, disk.h, disk.R, tip_sphere)
     tip = int(np.argmax(pts[:, 0]))
     upper, lower = pts[:tip], pts[tip + 1:]
     arc = np.linspace(np.pi / 2 - half, -(np.pi / 2 - half), 9)     # from the upper tangent point to the lower

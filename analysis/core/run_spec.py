@@ -10,7 +10,8 @@ import json
 import math
 
 from analysis.core.bed_spec import BED_DIR, check_graded
-from analysis.core.config import (AWAKE, SEED, SLIP, THREADS, CommandLine, ConfigError, Field, as_dict, check_awake,
+from analysis.core.config import (AWAKE, SEED, SLIP, THREADS, CommandLine, ConfigError, Field, SOIL_DEFAULTS, as_dict,
+                                  check_awake,
                                   load_disk, load_machine, load_preset, load_resolution, load_sleeve, load_soil, option,
                                   parse_overrides, preset_with, soil_with, tool_with)
 from analysis.core.kinematics import TIP_SPHERE_RATIO, layout
@@ -80,9 +81,10 @@ def check_sleeve_step(sleeve, soil, res, dt_safety: float, density_scale: float 
     >>> soil, res = N(young=2e7), N(radius=0.006, spread=0.25)
     >>> check_sleeve_step(N(mass=0.2, stiffness=8.0, outer_diameter=80.0, damping_ratio=0.2), soil, res, 0.5)
     >>> check_sleeve_step(N(mass=1e-9, stiffness=1e4, outer_diameter=80.0, damping_ratio=0.2), soil, res, 0.5)
+    ... # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    analysis.core.config.ConfigError: sleeve.mass = 1e-09 kg is out of range for this scene: allowed >= 0.083 kg (the plate's period against the time step: ω·dt = 4.5e+03 > 0.5, with the spring 10000 N/mm and the soil under the plate about 1e+04 N/mm, dt about 3.2e-05 s)
+    analysis.core.config.ConfigError: sleeve.mass = 1e-09 kg is out of range for this scene: allowed >= 0.083 kg ...
     """
     r_mean = res.radius
     r_min = res.radius * (1 - res.spread)
@@ -139,7 +141,8 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
     check_sleeve_step(sleeve, soil, res, preset.dt_safety, spec.density_scale or 1.0)
     lay = layout(disk, speed_kmh, slip, preset.holes, preset.lead_in, preset.run_out,
                  tip_sphere=TIP_SPHERE_RATIO * disk.d)
-    params = {"soil": as_dict(soil), "disk": as_dict(disk), "sleeve": as_dict(sleeve), "preset": preset.in_run(),
+    soil_params = {k: v for k, v in as_dict(soil).items() if SOIL_DEFAULTS.get(k, object()) != v}  # ids as before
+    params = {"soil": soil_params, "disk": as_dict(disk), "sleeve": as_dict(sleeve), "preset": preset.in_run(),
               "slip": slip, "speed_kmh": speed_kmh, "seed": seed, "mode": mode, "disk_inertia": spec.disk_inertia,
               "layout": {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(lay).items()},
               "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}

@@ -9,8 +9,9 @@ level is empty (floor -inf: nothing carved there). Three shapes, each with a pre
 The plate's ring and basin are pressed: the grains over them move down by the floor's depth, so the pressed
 surface keeps the roughness of the undisturbed one. The hole is then cut two ways: `touch`, every grain that
 reaches into it removed (the wall stands at or behind the cut), and `centre`, every grain whose centre is in it
-removed (wall grains stand up to a radius into the hole). The truth is read off the void itself on a 0.25 mm grid, by the same four-line rule as the
-caliper (caliper.read_opening), so a miss is the grains' and the instrument's, not the rule's.
+removed (wall grains stand up to a radius into the hole). The truth is read off the void itself on a 0.25 mm
+grid, by the same four-line rule as the caliper (caliper.read_opening), so a miss is the grains' and the
+instrument's, not the rule's.
 """
 from __future__ import annotations
 

@@ -87,7 +87,8 @@ def hole_centres(summary: dict) -> list:
 
 def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"):
     """One row per measured hole (mm): centre x, spacing C to the next hole (NaN for the last), h1, L0, L1, L2,
-    L0's parts ahead of (+x) and behind the hole's axis, the bottom depth and the length along the travel at 5 ... 60 mm below the undisturbed surface (l_5 ...);
+    L0's parts ahead of (+x) and behind the hole's axis, the bottom depth and the length along the travel at
+    5 ... 60 mm below the undisturbed surface (l_5 ...);
     the probe is the mean grain radius. A hole not found where the punch entered (metrology.measure_hole)
     keeps its kinematic x and NaN measures, and no spacing C is taken to or from it. Also returns what the
     pictures need: the hole measures, the undisturbed level, the probed surface and the loaded run."""
@@ -104,7 +105,8 @@ def measure_run(folder, cell: float = 1.0, seedling_path="configs/seedling.toml"
     x = np.array([h.x if h.found else np.nan for h in holes])      # C: NaN to or from a hole not found
     rows = [{"run": summary["id"], "soil": cfg["soil"]["name"], "seed": cfg["seed"], "hole": k + 1,
              "found": h.found, "x": h.x,
-             "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2, "L2_surface": h.L2 + h.h1,
+             "C": (x[k + 1] - x[k]) if k + 1 < len(x) else np.nan, "h1": h.h1, "L0": h.L0, "L1": h.L1, "L2": h.L2,
+             "L2_surface": h.L2 + h.h1,
              "L0_ahead": h.ahead, "L0_behind": h.behind, "bottom": h.bottom, "grain_radius": probe, "probe": probe, "cell": cell,
              **{f"l_{H}": v for H, v in zip(DEPTHS, h.l_depth)}}
             for k, h in enumerate(holes)]

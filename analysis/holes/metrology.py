@@ -248,8 +248,8 @@ def measure_state(pos_mm, radius_mm, initial_pos_mm, initial_radius_mm, width: f
     """Every hole of a strip (positions in mm, strip 0 <= y <= width, holes expected at `hole_x` on its
     centreline): a list of HoleMeasure and the undisturbed surface level (the median probed surface of the
     bed before the disk, walls' cells left out, and only within `band` = (y_lo, y_hi) if given: a graded bed's
-    fine zone); `caliper`: measure_hole's jaw and level. The probe defaults to the mean grain radius; spacing C is the difference of consecutive
-    centres (measure_hole: each at the hole's effective depth)."""
+    fine zone); `caliper`: measure_hole's jaw and level. The probe defaults to the mean grain radius; spacing C
+    is the difference of consecutive centres (measure_hole: each at the hole's effective depth)."""
     probe = float(np.mean(radius_mm)) if probe is None else probe
     x_lo, x_hi = float(np.min(initial_pos_mm[:, 0])), float(np.max(initial_pos_mm[:, 0]))
     xs = np.arange(x_lo, x_hi + cell / 2, cell)

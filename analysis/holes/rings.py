@@ -20,7 +20,6 @@ import numpy as np
 import pandas as pd
 
 from analysis.core.io import atomic_csv, stamp
-from analysis.core.config import load_seedling
 from analysis.holes.measure import hole_centres, hole_tool, measure_run
 from analysis.holes.caliper import JAW, LEVEL_BELOW, LEVELS
 from analysis.holes.metrology import caliper_reading, h1_band, side_profile
@@ -58,8 +57,8 @@ def profiles(measured) -> pd.DataFrame:
 
 def level_table(measured) -> pd.DataFrame:
     """One row per hole and level (caliper.LEVELS, mm below the subsided level −h1): the caliper's L0 and L1
-    there and L0's split ahead of (+x, the travel) and behind the hole's axis (its section's centroid at L2), mm. `measured`: a run's
-    measure_run()."""
+    there and L0's split ahead of (+x, the travel) and behind the hole's axis (its section's centroid at L2),
+    mm. `measured`: a run's measure_run()."""
     table, holes, z_surface, _, (cfg, summary, state) = measured
     D, _ = hole_tool(cfg)
     grains = (state["pos"] * 1000, state["radius"] * 1000)

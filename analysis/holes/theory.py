@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from analysis.core.config import Disk
+from analysis.core.kinematics import punch_section
 
 READINGS = ("printed", "rigid")
 
@@ -109,22 +110,6 @@ def hole_spacing(disk: Disk, slip: float = 0.0) -> float:
 
 
 # --- the exact swept envelope -----------------------------------------------------------------------------
-
-def punch_section(disk: Disk, z: float = 0.0, n_cone: int = 32) -> np.ndarray:
-    """Outline (u, v) of the punch cut by the plane at lateral offset z from its centre plane, as a convex
-    polygon: u along the punch axis from the disk centre, v across it in the disk plane. Empty if |z| >= d."""
-    d, R, h = disk.d, disk.R, disk.h
-    z = abs(z)
-    if z >= d:
-        return np.empty((0, 2))
-    w = np.sqrt(d * d - z * z)                       # cylinder: strip of half-width w
-    u_end = R - h * z / d                            # cone radius d(R-u)/h falls to z here
-    u = np.linspace(R - h, u_end, n_cone)
-    wc = np.sqrt(np.maximum((d * (R - u) / h) ** 2 - z * z, 0.0))
-    upper = np.column_stack([np.r_[disk.R0, u], np.r_[w, wc]])
-    lower = upper[::-1] * [1, -1]
-    return np.vstack([upper, lower[1:]])           # the tip point (v = 0) appears once
-
 
 def to_world(u, v, theta, disk: Disk, slip: float = 0.0, phase: float = 0.0):
     """World position (X, Y) of point (u, v) of the punch set `phase` radians behind punch 0, when the disk

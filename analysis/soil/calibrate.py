@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.batch.scenes import run_process, say
+from analysis.core.runner import run_process, say
 from analysis.core.config import ROOT, ConfigError, load_soil
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
@@ -81,7 +81,7 @@ def cone_run(bed: str, match) -> tuple[Path, dict] | None:
 
 def same_cohesion(s: dict, cohesion_pa: float) -> bool:
     """A stored cone run's bond strength is the asked one within SAME_COHESION."""
-    return abs(s["cohesion_pa"] / cohesion_pa - 1) <= SAME_COHESION
+    return abs(s["cohesion_pa"] - cohesion_pa) <= SAME_COHESION * max(abs(cohesion_pa), 1.0)   # 1 Pa about 0
 
 
 def stored_cone(bed: str, cone_scale: float, speed: float, cohesion: float) -> tuple[Path, dict] | None:

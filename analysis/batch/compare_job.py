@@ -20,13 +20,13 @@ from pathlib import Path
 import pandas as pd
 
 from analysis.holes import compare, measure, rings
-from analysis.batch.scenes import finished, plan_case, run_all, say, scene_args
+from analysis.core.runner import finished, plan_case, run_all, say, scene_args
 from analysis.core.config import ROOT, ConfigError, load_criteria, load_preset
-from analysis.holes.machine import TARGET_METRICS, load_of
+from analysis.batch.machine import TARGET_METRICS, load_of
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
 KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # a run's files kept beside the table
-KEPT_IF_THERE = ("load.json",)      # the calibrated machine's load W (analysis/holes/machine.py load_of)
+KEPT_IF_THERE = ("load.json",)      # the calibrated machine's load W (analysis/batch/machine.py load_of)
 MD_ORDER = ("validation_medium", "validation_surface", "quick", "graded", "paper")   # results/comparison.md: the main job first
 
 
@@ -141,7 +141,8 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     cpu = (f" and {costs.cpu_s.sum():.0f} s of CPU" if "cpu_s" in costs and costs.cpu_s.notna().all() else "")
     cost = "Cost: not recorded for these runs." if costs.empty else (
         f"Cost: {len(costs)} runs, {int(costs.particles.mean())} grains each on average, "
-        f"{costs.wall_s.sum():.0f} s of wall time{cpu} in all (YADE threads per run: {'/'.join(map(str, sorted(set(costs.threads))))}; "
+        f"{costs.wall_s.sum():.0f} s of wall time{cpu} in all (YADE threads per run: "
+        f"{'/'.join(map(str, sorted(set(costs.threads))))}; "
         f"{(costs.wall_s * 200 / costs.travel_mm).mean():.0f} s per 200 mm hole; wall time includes any time a run "
         f"was suspended).")
     unrecorded = holes.run.nunique() - len(costs)
@@ -180,7 +181,7 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
             loads.setdefault(soil, []).append(json.loads(f.read_text())["W_n"])
     if loads:
         md += ("\nThe load the machine must carry, W (the mean vertical soil force on the disk's punches and plates "
-               "over the measured holes' punch periods, `analysis/holes/machine.py`): "
+               "over the measured holes' punch periods, `analysis/batch/machine.py`): "
                + ", ".join(f"{soil} {sum(w) / len(w):.0f} N" for soil, w in loads.items()) + ".\n")
     trend = compare.position_trend(holes)
     if not trend.empty:

@@ -1,5 +1,5 @@
 """The machine's unknowns calibrated on clay, the other soils then predicted (seed 001 gives neither how deep the
-punches went nor the press sleeve's spring). No YADE: the runs are disk scenes (analysis/batch/scenes.py).
+punches went nor the press sleeve's spring). No YADE: the runs are disk scenes (analysis/core/runner.py).
 
     ./holes calibrate-machine [configs/studies/machine_clay.toml] [--no-run]
 
@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.batch.scenes import finished, run_all, say
+from analysis.core.runner import finished, run_all, say
 from analysis.core.config import MACHINE, ROOT, ConfigError
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
@@ -164,9 +164,9 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
     machine.csv (every hole) and machine_fit.csv (both variants), and each fitted variant's values to
     configs/machine.toml (`machine_path`), where a preset's `machine` key reads them."""
     from analysis.core.bed_spec import BED_DIR
-    from analysis.batch.scenes import scene_args
+    from analysis.core.runner import scene_args
     from analysis.holes.compare import field_table
-    from analysis.holes.compare_job import keep
+    from analysis.batch.compare_job import keep
     cases = load_design(design)
     want = targets(field_table())
     runs_dir = Path(runs_dir or ROOT / "results/runs")

@@ -1,0 +1,154 @@
+"""Scene: a direct shear box (a soil bench test) on a settled bed: c and φ of the model soil.
+
+    .venv/bin/python scripts/shear.py --soil clay --resolution medium --size 150,150,100 --stress 50,100,200
+
+Parts: bed (scripts/beds.py; intact bonds on the settled contacts; a contact made later gets the soil's
+new_contact_cohesion of their strength, as in the tool scenes), box (the lower half fixed, the upper half's four
+walls pushed along +x at a constant speed, the shear plane at mid-height with a gap of one grain diameter between
+the frames, so no grain is pinched there), lid (a plate resting on the sample under a dead load σn·A, free to rise
+and sink, moving along with the upper half), recorder (the shear force the upper half takes against its
+displacement). One fresh sample per normal stress, as a shear box test is run; the peak shear stress over a
+displacement of SHEAR_STRAIN × the box's length, on the sheared area, is τ at that σn.
+Writes results/soils/shear/<bed key>-<stresses>.json (per σn: peak and residual τ, the lid's rise, the curve)
+with the Mohr-Coulomb fit (analysis/soil/shear.py), and prints the fit as a JSON line.
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from analysis.core.config import ROOT, ConfigError, Field, load_soil, parse_overrides, soil_with  # noqa: E402
+from analysis.core.io import atomic_write  # noqa: E402
+
+STRESS = Field(1.0, 1000.0, unit="kPa", meaning="normal stress on the sample")
+SPEED = Field(0.001, 0.2, unit="m/s", meaning="the upper half's shearing speed")
+SHEAR_STRAIN = 0.2             # the upper half is pushed this fraction of the box's length
+CONSOLIDATE_S = 0.05           # s under the lid's load before shearing
+LID_T = 0.01                   # m: the lid's half-thickness
+
+
+def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, threads: int = 1,
+        overrides: dict | None = None, quiet: bool = False) -> dict:
+    """Consolidate the bed's sample under σn = stress_kpa, shear it, return its curve's summary."""
+    soil = soil_with(load_soil(soil_name), overrides or {})
+    from scripts.beds import load_meta
+    meta = load_meta(bed_path)
+    L, W, D = meta["size_m"]
+    log = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+
+    from scripts.yadeboot import boot
+    boot(threads)
+    import numpy as np
+    from yade import O, PyRunner, utils
+    from scripts import soil as part
+
+    wall0 = time.time()
+    O.reset()
+    data = np.load(bed_path)
+    r = float(np.mean(data["radius"]))
+    top = float(np.max(data["pos"][:, 2] + data["radius"]))
+    mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=True))
+    steel = O.materials.append(part.steel_material(soil))
+    grains = list(O.bodies.append([utils.sphere(tuple(p), rr, material=mat)
+                                   for p, rr in zip(data["pos"], data["radius"])]))
+    plane, gap, t, height = D / 2, 2 * r, 0.02, top + 0.1
+    lower = part.container(L, W, plane - gap / 2, steel, t=t)       # floor and walls up to the shear plane
+    upper = [utils.box(c, e, fixed=True, material=steel) for c, e in (
+        ((-t, W / 2, (plane + gap / 2 + height) / 2), (t, W / 2 + t, (height - plane - gap / 2) / 2)),
+        ((L + t, W / 2, (plane + gap / 2 + height) / 2), (t, W / 2 + t, (height - plane - gap / 2) / 2)),
+        ((L / 2, -t, (plane + gap / 2 + height) / 2), (L / 2 + t, t, (height - plane - gap / 2) / 2)),
+        ((L / 2, W + t, (plane + gap / 2 + height) / 2), (L / 2 + t, t, (height - plane - gap / 2) / 2)))]
+    O.bodies.append(lower)
+    upper_ids = list(O.bodies.append(upper))
+    lid = utils.box((L / 2, W / 2, top + LID_T + 0.001), (L / 2 - 0.002, W / 2 - 0.002, LID_T), material=steel)
+    lid.state.blockedDOFs = "xyXYZ"                   # it sinks and rises; it moves along x with the upper half
+    lid_id = O.bodies.append(lid)
+    area = L * W
+    load = stress_kpa * 1e3 * area
+    O.forces.setPermF(lid_id, (0, 0, -load))
+    rows = []
+    push = {"v": 0.0, "x": 0.0}
+
+    def hook():
+        dt = O.dt
+        push["x"] += push["v"] * dt
+        for i in upper_ids:
+            O.bodies[i].state.vel = (push["v"], 0, 0)
+        O.bodies[lid_id].state.vel = (push["v"], 0, O.bodies[lid_id].state.vel[2])
+
+    O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True,
+                             extra=[PyRunner(command="shear_hook()", iterPeriod=1)])
+    import builtins
+    builtins.shear_hook = hook
+    for i in upper_ids:                                  # moved by velocity, not by the integrator's forces
+        O.bodies[i].state.blockedDOFs = "xyzXYZ"
+        O.bodies[i].dynamic = False
+    O.dt = 0.5 * utils.PWaveTimeStep()
+    n_consolidate = int(CONSOLIDATE_S / O.dt)
+    O.run(1, True)                                      # the intact bonds
+    part.bond_new_contacts(O, soil)
+    O.run(n_consolidate - 1, True)
+    z_lid0 = O.bodies[lid_id].state.pos[2]
+    travel = SHEAR_STRAIN * L
+    n_shear = int(travel / speed / O.dt) + 1
+    push["v"] = speed
+    report = max(1, n_shear // 10)
+    chunk = 20
+    while O.iter < n_consolidate + n_shear:
+        O.run(chunk, True)
+        fx = -sum(O.forces.f(i)[0] for i in upper_ids) - O.forces.f(lid_id)[0]    # the push the soil resists
+        if not math.isfinite(fx):
+            raise RuntimeError(f"shear: the force is {fx} at t = {O.time:.4f} s (numerical blow-up)")
+        shift = push["x"]
+        rows.append((shift, fx / ((L - shift) * W), O.bodies[lid_id].state.pos[2] - z_lid0))
+        if (O.iter - n_consolidate) % report < chunk:
+            log(f"shear σn {stress_kpa:g} kPa: {100 * shift / travel:3.0f} %  τ {rows[-1][1] / 1e3:6.1f} kPa  "
+                f"lid {1000 * rows[-1][2]:+.1f} mm  wall {time.time() - wall0:.0f} s")
+        vmax = max(O.bodies[i].state.vel.norm() for i in grains[::7])
+        if vmax > 100 * speed + 1.0:
+            raise RuntimeError(f"shear: a grain moves at {vmax:.2f} m/s (unstable)")
+    d = np.array(rows)
+    tail = d[int(0.8 * len(d)):]
+    return {"bed": meta["key"], "soil": soil.name, "radius_m": r, "size_m": [L, W, D], "stress_kpa": stress_kpa,
+            "tau_peak_kpa": float(d[:, 1].max() / 1e3), "tau_residual_kpa": float(tail[:, 1].mean() / 1e3),
+            "shift_at_peak_mm": float(1000 * d[int(np.argmax(d[:, 1])), 0]),
+            "lid_rise_mm": float(1000 * d[-1, 2]), "particles": len(grains), "steps": int(O.iter), "dt": O.dt,
+            "wall_s": time.time() - wall0, "threads": threads,
+            "curve": [[round(1000 * a, 3), round(b / 1e3, 3), round(1000 * c, 3)] for a, b, c in d[::5]]}
+
+
+def main(argv=None) -> int:
+    from scripts import beds as bed
+    p = bed.bed_arguments(__doc__.splitlines()[0], "150,150,100", "holes shear")
+    p.add_argument("--stress", default="50,100,200", help="normal stresses, kPa (one sample each)")
+    p.add_argument("--speed", type=float, default=0.05, help="shearing speed, m/s (default 0.05)")
+    p.add_argument("--out", help="where the result goes (default results/soils/shear)")
+    a = p.parse_args(argv)
+    try:
+        stresses = [STRESS.check("shear.stress", float(s)) for s in a.stress.split(",")]
+        SPEED.check("shear.speed", a.speed)
+        bed_path = bed.bed_from_args(a)
+        rows = [run(bed_path, a.soil, s, a.speed, a.threads, parse_overrides(a.set)) for s in stresses]
+    except (ConfigError, ValueError) as e:
+        print(f"shear: {e}", file=sys.stderr)
+        return 2
+    except RuntimeError as e:
+        print(f"shear stopped: {e}", file=sys.stderr)
+        return 3
+    from analysis.soil.shear import mohr_coulomb
+    fit = mohr_coulomb([r["stress_kpa"] for r in rows], [r["tau_peak_kpa"] for r in rows])
+    out = Path(a.out) if a.out else ROOT / "results/soils/shear"
+    name = f"{rows[0]['bed']}-{'_'.join(f'{s:g}' for s in stresses)}"
+    summary = {"bed": rows[0]["bed"], "soil": rows[0]["soil"], "radius_mm": 1000 * rows[0]["radius_m"],
+               "overrides": parse_overrides(a.set), **fit, "tests": rows}
+    atomic_write(out / f"{name}.json", json.dumps(summary, indent=1))
+    print(json.dumps({k: v for k, v in summary.items() if k != "tests"}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
