@@ -322,6 +322,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_theory)
     scene("bed", "bed.py", "settle and level a soil bed (cached by soil, resolution, size, seed)")
     scene("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)")
+    scene("shear", "shear.py", "a direct shear box on a settled bed: peak shear stress at each normal stress, c and φ")
     p = sub.add_parser("calibrate", help="fit a soil's cohesion to the Table 2 cone index (within 5 %%)")
     p.add_argument("--soil", required=True)
     p.add_argument("--resolution", default="coarse", help="the beds' grains (default: r = 8 mm, as calibrated)")
@@ -439,7 +440,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = build_parser()
     args, rest = parser.parse_known_args(argv)
-    if rest and args.command not in ("bed", "cone", "run", "duckbeak"):
+    if rest and args.command not in ("bed", "cone", "shear", "run", "duckbeak"):
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
     args.rest = rest
     try:

@@ -8,7 +8,7 @@ interior; then the grain density is set to ρ_d(1 + w)/(1 - n) so that the bed w
 soil of Table 2 weighs at its dry bulk density ρ_d and moisture w. Cohesion is switched on by the scenes
 that use the bed, so calibrating cohesion never re-settles a bed.
 
-Graded beds (a resolution with `coarse_radius`, issue 3 item 5): grains of the resolution's radius in the fine
+Graded beds (a resolution with `coarse_radius`): grains of the resolution's radius in the fine
 zone, a band `fine_width` wide along the strip's middle and `fine_depth` deep, where the punches and plates work,
 and grains of `coarse_radius` under and beside it. The cloud is made zone by zone (`zones`), each at the same
 solid fraction, so each zone settles where it belongs; levelling removes a coarse grain whose centre is above
@@ -20,7 +20,7 @@ stands for an unbounded field and a cone or punch meets no wall; the saved posit
 
 Tiled beds (`tiles` = n > 1, periodic only): the settled periodic bed repeated n × n times in a cell n times as
 long and wide (`tile`). Every grain keeps its contacts, so the tiled bed is settled as it stands, and beds of
-different n share one packing: the paired width check of the cone index (issue 3), where only the cell differs.
+different n share one packing: the paired width check of the cone index, where only the cell differs.
 
 Beds are keyed by soil (its settling parameters), resolution, size, sides and seed: results/beds/<key>.npz + .json.
 """

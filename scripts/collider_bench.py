@@ -1,4 +1,4 @@
-"""Benchmark: the contact detection's settings on a whole strip, from a run's checkpoint (issue 7).
+"""Benchmark: the contact detection's settings on a whole strip, from a run's checkpoint.
 
     .venv/bin/python scripts/collider_bench.py results/runs/<id> [--steps 3000] [--threads 2]
     # or: ./holes bench collider --run results/runs/<id>
@@ -35,7 +35,7 @@ SETTINGS = [                # (name, InsertionSortCollider attributes); the firs
     ("YADE default: verletDist 0.5 r, targetInterv 100", {"verletDist": -0.5, "targetInterv": 100}),
     ("the same again", {"verletDist": -0.5, "targetInterv": 100}),
     ("verletDist 0.5 r, targetInterv 0", {"verletDist": -0.5, "targetInterv": 0}),
-    ("verletDist 0.5 mm, targetInterv 0", {"verletDist": 5e-4, "targetInterv": 0}),   # disk.COLLIDER since 2026-11-25
+    ("verletDist 0.5 mm, targetInterv 0", {"verletDist": 5e-4, "targetInterv": 0}),   # disk.COLLIDER
     ("verletDist 1 mm, targetInterv 0", {"verletDist": 1e-3, "targetInterv": 0}),
 ]
 ADOPTED = 3                 # SETTINGS' index of disk_parts.COLLIDER, the scenes' own setting

@@ -1,4 +1,4 @@
-"""Scene: the pepper transplanter's closed duck-beak planter through a ridge bed (seed 000, issue 8 step 4).
+"""Scene: the pepper transplanter's closed duck-beak planter through a ridge bed (seed 000).
 
     .venv/bin/python scripts/duckbeak.py            # or: ./holes duckbeak [--soil loam] [--set D=50 ...]
 

@@ -1,4 +1,4 @@
-"""Benchmark: the same settled bed and single punch in LIGGGHTS (Debian's `liggghts`) and in YADE (issue 7).
+"""Benchmark: the same settled bed and single punch in LIGGGHTS (Debian's `liggghts`) and in YADE.
 
     .venv/bin/python scripts/peer.py          # or: ./holes bench peer
 

@@ -29,6 +29,7 @@ SPEED = Field(0.001, 0.2, unit="m/s", meaning="the upper half's shearing speed")
 SHEAR_STRAIN = 0.2             # the upper half is pushed this fraction of the box's length
 CONSOLIDATE_S = 0.05           # s under the lid's load before shearing
 LID_T = 0.01                   # m: the lid's half-thickness
+FRAME_T = 0.002                # m: the frames' half-thickness (a thin edge at the shear plane)
 
 
 def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, threads: int = 1,
@@ -55,7 +56,7 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     steel = O.materials.append(part.steel_material(soil))
     grains = list(O.bodies.append([utils.sphere(tuple(p), rr, material=mat)
                                    for p, rr in zip(data["pos"], data["radius"])]))
-    plane, gap, t, height = D / 2, 2 * r, 0.02, top + 0.1
+    plane, gap, t, height = D / 2, 2 * r, FRAME_T, top + 0.1
     lower = part.container(L, W, plane - gap / 2, steel, t=t)       # floor and walls up to the shear plane
     upper = [utils.box(c, e, fixed=True, material=steel) for c, e in (
         ((-t, W / 2, (plane + gap / 2 + height) / 2), (t, W / 2 + t, (height - plane - gap / 2) / 2)),

@@ -1,4 +1,4 @@
-"""Soil beds and the virtual cone (issue 3), on tiny scenes; each scene runs in its own YADE process."""
+"""Soil beds and the virtual cone, on tiny scenes; each scene runs in its own YADE process."""
 import json
 import re
 import subprocess

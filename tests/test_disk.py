@@ -1,4 +1,4 @@
-"""The rolling punch disk with press sleeves (issue 4), on a tiny strip; each scene is its own YADE process."""
+"""The rolling punch disk with press sleeves, on a tiny strip; each scene is its own YADE process."""
 import json
 import re
 import math

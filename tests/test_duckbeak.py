@@ -1,4 +1,4 @@
-"""The duck-beak planter of seed 000 through a soil bed (issue 8, step 4)."""
+"""The duck-beak planter of seed 000 through a soil bed."""
 import json
 import math
 import subprocess

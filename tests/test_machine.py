@@ -126,8 +126,8 @@ def test_the_load_is_read_from_the_first_measured_hole_on_a_strip_longer_than_th
 
 
 def test_a_strip_whose_punches_turn_twice_is_a_new_run():
-    """Until 2026-11-26 a punch on its second turn had its sleeve held rigid (its angle was not wrapped): the
-    runs of strips longer than N holes changed, those of shorter strips did not."""
+    """A punch on its second turn works its sleeve (its angle is wrapped): the runs of strips longer than N
+    holes carry the mark, those of shorter strips keep their ids."""
     from analysis.core.kinematics import wrapped
     from analysis.core.run_spec import plan
     assert wrapped(0.3 - 2 * np.pi) == pytest.approx(0.3) and wrapped(np.pi) == pytest.approx(-np.pi)

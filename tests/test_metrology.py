@@ -85,7 +85,7 @@ def test_a_crater_smeared_ahead_of_its_hole_is_found():
 @pytest.mark.parametrize("r", [4.0, 5.0])                # the default and quick resolutions
 def test_h1_reads_the_pressed_ring_not_the_rim_heaved_round_it(r):
     """A round hole (D = 50) in a ring pressed 17 mm down out to the plate's 40 mm radius, and the surface
-    beyond it heaved 8 mm, as the disk scenes leave it (README, issue 5). h1 is the ring's depth; the band the
+    beyond it heaved 8 mm, as the disk scenes leave it (results/comparison/README.md). h1 is the ring's depth; the band the
     earlier rule read (D/2 + probe ... 40 mm) lay half on the rim, which overhangs the probed surface by a grain
     radius plus the probe, and read 2.3 mm at r = 4. The side profile shows the ring and the rim."""
     press, heave = 17.0, 8.0

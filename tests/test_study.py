@@ -1,4 +1,4 @@
-"""Batch studies (issue 6): 4 tiny cases on 2 local workers with a kill and a resume; a failing case on a Dask
+"""Batch studies: 4 tiny cases on 2 local workers with a kill and a resume; a failing case on a Dask
 LocalCluster (2 workers over loopback TCP) is reported while the other finishes; bad study files."""
 import json
 import re
@@ -197,7 +197,7 @@ def test_a_committed_table_keeps_its_cases_on_a_new_machine(tmp_path, monkeypatc
 
 
 def test_a_stamp_names_the_code_the_process_runs(monkeypatch):
-    """A paper run outlives sessions' commits: its table is stamped with the commit the process loaded, and
+    """A long run outlives later commits: its table is stamped with the commit the process loaded, and
     says so when the checkout moved on while it ran."""
     from analysis.core import io
     assert f"at commit {io.head()} on" in io.stamp("x")

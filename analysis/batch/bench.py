@@ -1,4 +1,4 @@
-"""Cost against error. The ladder (issue 7): one clay hole at several particle sizes, time steps and contact
+"""Cost against error. The ladder: one clay hole at several particle sizes, time steps and contact
 stiffnesses (configs/studies/speed_vs_error.toml, run as a study), each case's cost beside the error of its hole
 metrics against the finest case and against the field mean (seed 001 Table 3). The presets against each other
 and against converged grains (the main job's choice), the convergence in grain size and the economies.
@@ -282,7 +282,7 @@ def run(workers: int, threads: int, runs_dir=None, bed_dir=None, out=None, no_ru
 
 
 # The presets against a reference preset (`./holes bench presets`): the same machine and strip at other grains.
-# Fixed before any candidate's holes were seen (2026-11-26): per soil and metric of compare.VALIDATED, the shift of
+# Fixed before any candidate's holes were seen: per soil and metric of compare.VALIDATED, the shift of
 # the candidate's mean from the reference's (Welch, 95 %), in % of the field mean. A preset is fit for the main
 # job when no shift is both resolved (interval excluding 0) and larger than 10 % of the field mean (the
 # validation's own tolerance); the goal of 3 % is counted apart (shifts whose size is within it).

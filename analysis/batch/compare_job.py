@@ -8,8 +8,9 @@ others go on. All inputs are checked before the first scene starts.
 Every run measured here is also kept in <out>/comparison/runs/<id>/ (holes.csv, summary.json, config.json and
 the final grains, state.npz; committed with the table). With `kept`, a table pools runs made on other machines:
 a run whose folder is not on this machine but is kept there is not run again; it is measured again from its
-kept state.npz, so a change of the metrology reaches it, or, kept before the states were (2026-11-24), its holes
-are read as they were measured (the file's first line says when). Without it, every run not on this machine is run.
+kept state.npz, so a change of the metrology reaches it, or, kept without its grains, its holes are read as they
+were measured if this metrology measured them (else the run is left out and named). Without it, every run not
+on this machine is run.
 """
 from __future__ import annotations
 

@@ -607,7 +607,7 @@ GRADED = {"coarse_radius": 0.0, "fine_width": 0.0, "fine_depth": 0.0}   # absent
 class Resolution:
     """Particle sizes (m). A graded bed (coarse_radius > 0) has grains of `radius` in the fine zone, a band
     `fine_width` wide along the strip's middle and `fine_depth` deep under its surface, where the punches and
-    plates work, and grains of `coarse_radius` round and under it (issue 3 item 5, issue 7's economies)."""
+    plates work, and grains of `coarse_radius` round and under it."""
     name: str
     radius: float
     spread: float

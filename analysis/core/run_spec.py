@@ -157,8 +157,8 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
     if spec.density_scale is not None and spec.density_scale != 1.0:     # likewise
         params["density_scale"] = RUN_FIELDS["density_scale"].check("run.density_scale", spec.density_scale)
     if len(lay.hole_x) > disk.N:            # likewise
-        # punches on a second turn: until 2026-11-26 their sleeves were held rigid there (the punch's angle was not
-        # wrapped), so such a strip's runs from before are not these
+        # punches on a second turn (their sleeves work there too, the punch's angle wrapped): a strip longer than
+        # N holes is marked, so its runs are never mistaken for runs made when its sleeves were held rigid
         params["punch_turns"] = math.ceil(len(lay.hole_x) / disk.N)
     if spec.tilled is not None:             # likewise
         if not isinstance(spec.tilled, (list, tuple)) or len(spec.tilled) != 2:

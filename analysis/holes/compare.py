@@ -62,7 +62,7 @@ def field_table(path=ROOT / "configs/field/table3.csv") -> pd.DataFrame:
 
 
 def theory_values(disk_path="configs/disk.toml", slip: float | None = None) -> dict:
-    """Theory beside the field and the simulation (issue 2), no subsidence in either:
+    """Theory beside the field and the simulation, no subsidence in either:
     - "table1": the paper's own theory, Table 1 (eqs 1-5 as the authors evaluated them): L0, L1 at the slip
       (nearest tabulated), and C = 2πR(1-δ)/N (eq 6);
     - "envelope": the exact swept envelope of the rigid punch: L0 and L1 at the surface, L2 from the surface

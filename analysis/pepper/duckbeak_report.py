@@ -1,4 +1,4 @@
-"""The duck-beak's hole (seed 000 in the soil, issue 8 step 4): measured as a punch hole is (seed 001 §4.2),
+"""The duck-beak's hole (seed 000 in the soil): measured as a punch hole is (seed 001 §4.2),
 pictured with the planter's pass. No YADE.
 
 Writes into the run's folder and copies to `dest` (default results/pepper/duckbeak/): hole.csv, summary.json,

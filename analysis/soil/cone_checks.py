@@ -1,4 +1,4 @@
-"""Checks of the calibrated beds (issue 3), `./holes cone-checks [configs/cone_checks.toml]`: the cone index on
+"""Checks of the calibrated beds, `./holes cone-checks [configs/cone_checks.toml]`: the cone index on
 replicate beds (other packing seeds), on a bed 1.5 × as wide, and against the cone-to-particle diameter ratio
 (grain size or cone size changed), each at the soil config's calibrated cohesion, beside seed 001 Table 2.
 Also the dry density of a 100 cm³ cutting-ring core in each bed (calibration_report.core_density), a density
