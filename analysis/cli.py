@@ -35,7 +35,11 @@ def run_scene(script: str, args: list[str]) -> int:
 
 def cmd_params(args) -> int:
     from analysis import params_doc
-    print(f"wrote {params_doc.write()}")
+    try:
+        print(f"wrote {params_doc.write()}")
+    except ConfigError as e:
+        print(f"params: {e}", file=sys.stderr)
+        return 2
     return 0
 
 
@@ -132,6 +136,9 @@ def cmd_study(args) -> int:
         if args.export_batch:
             if len(args.file) != 1:
                 raise ConfigError("--export-batch takes one study file")
+            if args.no_run or args.scheduler:
+                raise ConfigError("--export-batch writes a table and runs nothing: allowed without --no-run and "
+                                  "--scheduler")
             path = study.export_batch(args.file[0], Path(args.export_batch))
             print(f"wrote {path}; run it with: yade-batch {path} scripts/batch_case.py")
             return 0

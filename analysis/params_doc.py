@@ -119,7 +119,24 @@ def render() -> str:
     return "\n".join(out)
 
 
+def check_configs():
+    """Every config the page shows, loaded and checked as a run would load it: the page is never written from an
+    invalid config (a ConfigError names the key)."""
+    from analysis.core.config import load_criteria, load_disk, load_preset, load_resolution, load_seedling, load_sleeve
+    from analysis.core.config import load_soil, table2_row
+    disk = load_disk(ROOT / "configs/disk.toml")
+    load_sleeve(ROOT / "configs/disk.toml", disk)
+    for name in read_toml(ROOT / "configs/presets.toml"):
+        load_resolution(load_preset(name).resolution)
+    for name in read_toml(ROOT / "configs/resolutions.toml"):
+        load_resolution(name)
+    for soil in SOILS:
+        load_soil(soil), table2_row(soil, "configs/field/table2_soils.csv")
+    load_seedling(), load_criteria()
+
+
 def write() -> str:
     from analysis.core.io import atomic_write
+    check_configs()
     atomic_write(PATH, render())
     return str(PATH.relative_to(ROOT))

@@ -181,3 +181,18 @@ def test_a_whole_number_key_refuses_inf_and_nan_with_its_range(value):
     from analysis.core.config import SEED
     with pytest.raises(ConfigError, match="out of range: allowed"):
         SEED.check("run.seed", value)
+
+
+def test_the_parameter_page_is_not_written_from_an_invalid_config(tmp_path, monkeypatch, capsys):
+    """`./holes params` checks every config as a run loads it: a bad disk value exits 2 and writes nothing."""
+    import shutil
+    from analysis import params_doc
+    shutil.copytree(ROOT / "configs", tmp_path / "configs")
+    disk = tmp_path / "configs/disk.toml"
+    disk.write_text(disk.read_text().replace("N = 6", "N = 0", 1))
+    page = tmp_path / "configs/README.md"
+    before = page.read_text()
+    monkeypatch.setattr(params_doc, "ROOT", tmp_path)
+    monkeypatch.setattr(params_doc, "PATH", page)
+    assert cli.main(["params"]) == 2
+    assert "N = 0" in capsys.readouterr().err and page.read_text() == before

@@ -172,6 +172,16 @@ def test_energy_balance_closes(two_holes):
 
 
 @pytest.mark.scene
+def test_the_yade_version_is_read_one_way(two_holes):
+    """The scene (YADE loaded, its bed settled in the same process or not) and this process (no YADE) write the
+    same version text into a run's provenance."""
+    from analysis.core.io import yade_version
+    summary, run = two_holes
+    assert summary["provenance"]["yade"] == yade_version() == json.loads((run / "config.json").read_text()).get(
+        "provenance", summary["provenance"])["yade"]
+
+
+@pytest.mark.scene
 def test_periodic_strip_forms_a_measured_hole_without_side_walls(side_scenes, scene_dirs):
     """The strip periodic across the travel (the paper preset's sides): the punch reaches its
     depth, the sleeve works, no grain is lost, positions come back wrapped into the cell's width, and the hole
@@ -351,3 +361,16 @@ def test_sleepers_left_out_of_the_per_body_loops_change_nothing(scene_dirs, tmp_
         assert summary["awake"]["moves"] > 20 and summary["awake"]["awake_fraction"] < 0.8, summary["awake"]
         finals.append(np.load(runs / summary["id"] / "state.npz")["pos"])
     assert np.array_equal(finals[0], finals[1])
+
+
+@pytest.mark.parametrize("changes, pattern", [
+    ({"slip": 0.1, "tool": {"disk.slip": 0.5}}, "run.slip and disk.slip are both given"),
+    ({"speed_kmh": 2.0, "tool": {"disk.speed_kmh": 3.0}}, "run.speed_kmh and disk.speed_kmh are both given"),
+    ({"disk_inertia": 0.2}, "run.disk_inertia = 0.2: allowed only in free mode")])
+def test_conflicting_or_idle_run_options_are_refused(changes, pattern):
+    """One value per quantity: `--slip 0.1 --tool disk.slip=0.5` ran 0.1 and recorded 0.5; a prescribed disk's
+    inertia changed its id and nothing else."""
+    from analysis.core.run_spec import plan
+    with pytest.raises(ConfigError, match=pattern):
+        plan("clay", "test", **changes)
+    assert plan("clay", "test", mode="free", disk_inertia=0.2)["disk_inertia"] == 0.2

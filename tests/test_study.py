@@ -248,3 +248,24 @@ def test_a_sensitivity_against_an_unknown_preset_names_it(tmp_path):
     path.write_text(path.read_text().replace('name = "s"', 'name = "s"\nagainst = "validation"'))
     with pytest.raises(ConfigError, match="validation"):
         load_study(path)
+
+
+@pytest.mark.parametrize("header, message", [
+    ('name = "x"\nagaints = "quick"', r"\[study\] has unknown key\(s\) againts: allowed name, description, against"),
+    ('name = "../../x"', r"name = '\.\./\.\./x': allowed a plain file name"),
+    ('name = ""', r"name = '': allowed a plain file name"),
+    ('name = ".hidden"', r"name = '\.hidden': allowed a plain file name")])
+def test_a_study_header_is_checked_and_its_name_is_a_plain_file_name(tmp_path, header, message, capsys):
+    """A misspelt key would silently drop the sensitivity table; a name with a path would write outside --out."""
+    path = study_file(tmp_path, "h", {"slip": [0.0]})
+    path.write_text(path.read_text().replace('[study]\nname = "h"', f"[study]\n{header}"))
+    assert cli.main(["study", str(path), "--runs-dir", str(tmp_path / "runs"), "--out", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err
+    assert re.search(message, err) and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "s").exists() and not (tmp_path / "runs").exists()
+
+
+def test_export_batch_refuses_options_it_would_ignore(tmp_path, capsys):
+    path = study_file(tmp_path, "e", {"slip": [0.0]})
+    assert cli.main(["study", str(path), "--export-batch", str(tmp_path / "t.table"), "--no-run"]) == 2
+    assert "--export-batch" in capsys.readouterr().err and not (tmp_path / "t.table").exists()

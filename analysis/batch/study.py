@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,6 +43,10 @@ class Case:
         return ", ".join(f"{k}={v}" for k, v in self.fields.items())
 
 
+STUDY_KEYS = {"name": "the stem of results/studies/NAME.csv and .png", "description": "one line for the plot",
+              "against": "a preset whose comparison table the study's effects are set against"}
+
+
 def load_study(path) -> tuple[dict, list[Case]]:
     """The study's header and its cases (each a dict of fields), every case checked before any runs."""
     data = read_toml(path)
@@ -49,8 +54,14 @@ def load_study(path) -> tuple[dict, list[Case]]:
     if unknown:
         raise ConfigError(f"{path}: unknown section(s) {', '.join(unknown)}; allowed study, base, grid, case")
     head = data.get("study", {})
+    unknown = sorted(set(head) - set(STUDY_KEYS))
+    if unknown:
+        raise ConfigError(f"{path}: [study] has unknown key(s) {', '.join(unknown)}: allowed {', '.join(STUDY_KEYS)}")
     if "name" not in head:
         raise ConfigError(f"{path}: [study] needs a name")
+    if not isinstance(head["name"], str) or not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", head["name"]):
+        raise ConfigError(f"{path}: [study] name = {head['name']!r}: allowed a plain file name (letters, digits, "
+                          "_ . -, not starting with a dot), the stem of results/studies/NAME.csv")
     if "against" in head:
         load_preset(head["against"])        # a preset's name, or an error naming the allowed ones
     base = data.get("base", {})

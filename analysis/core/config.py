@@ -99,7 +99,39 @@ def option(name: str, field: Field, many: bool = False):
             except ConfigError as e:
                 raise argparse.ArgumentTypeError(str(e))
         return values if many else values[0]
+    parse.field = field                 # what the option takes, for the generated bad-input test
     return parse
+
+
+def invalid_values(field: Field) -> list:
+    """Values `field` must refuse, generated from its range and kind as scikit-learn's parameter validation
+    generates them: just outside each finite bound, NaN, ±inf and a word (a number for a string field).
+
+    >>> invalid_values(Field(0.0, 1.0, lo_open=True))
+    [0.0, 2.0, nan, inf, -inf, 'x']
+    >>> invalid_values(Field(1, 20, kind=int))[:3]
+    [0.0, 40, 1.5]
+    """
+    if field.kind is str:
+        return [3.0]
+    out = []
+    if math.isfinite(field.lo):
+        out.append(field.lo if field.lo_open else field.lo - max(1.0, abs(field.lo)))
+    if math.isfinite(field.hi):
+        out.append(field.hi if field.hi_open else field.hi + max(1.0, abs(field.hi)))
+    if field.kind is int:
+        out.append((field.lo if math.isfinite(field.lo) else 0) + 0.5)
+    return [*out, math.nan, math.inf, -math.inf, "x"]
+
+
+def number(value, where: str, field: Field):
+    """A config or command-line value as a number for `field`: a word is refused naming `where` and the range."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return value
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{where} = {value!r}: must be a number, allowed {field.allowed()}") from None
 
 
 def check_table(where: str, table: dict, schema: dict[str, Field], optional: dict | None = None) -> dict:
@@ -557,7 +589,8 @@ def soil_with(soil: Soil, overrides: dict) -> Soil:
     unknown = sorted(set(overrides) - set(SOIL_FIELDS))
     if unknown:
         raise ConfigError(f"soil override {', '.join(unknown)}: allowed keys {', '.join(SOIL_FIELDS)}")
-    checked = {k: SOIL_FIELDS[k].check(f"soil override {k}", float(v)) for k, v in overrides.items()}
+    checked = {k: SOIL_FIELDS[k].check(f"soil override {k}", number(v, f"soil override {k}", SOIL_FIELDS[k]))
+               for k, v in overrides.items()}
     return dataclasses.replace(soil, **checked)
 
 

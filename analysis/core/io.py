@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import datetime
+import functools
 import os
 import platform
 import subprocess
@@ -44,12 +45,10 @@ def stamp(command: str) -> str:
             f"({os.cpu_count()} cores), {datetime.date.today().isoformat()}")
 
 
+@functools.lru_cache(maxsize=None)
 def yade_version() -> str:
-    """The YADE this process runs (its loaded module), or the one Debian installed."""
-    import sys
-    loaded = sys.modules.get("yade.config")
-    if loaded is not None:
-        return str(loaded.version)
+    """The YADE Debian installed (`dpkg-query`), read the same way whether or not this process has loaded YADE,
+    so one run's config.json has one text (tests/test_disk.py checks a scene's against this process's)."""
     try:
         return subprocess.run(["dpkg-query", "-W", "-f=${Version}", "yade"], capture_output=True, text=True,
                               timeout=5).stdout.strip() or "not installed"

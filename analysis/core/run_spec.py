@@ -113,6 +113,12 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
     preset = load_preset(spec.preset)
     machine = load_machine(preset.machine)["tool"] if preset.machine else {}
     disk = load_disk(spec.disk_path)
+    for key, given in (("slip", spec.slip), ("speed_kmh", spec.speed_kmh)):
+        if given is not None and f"disk.{key}" in spec.tool:
+            raise ConfigError(f"run.{key} and disk.{key} are both given: allowed one of them (the run's own option)")
+    if mode != "free" and spec.disk_inertia != RunSpec.disk_inertia:
+        raise ConfigError(f"run.disk_inertia = {spec.disk_inertia!r}: allowed only in free mode (a prescribed disk's "
+                          "rotation is set, its inertia plays no part)")
     disk, sleeve = tool_with(disk, load_sleeve(spec.disk_path, disk), {**machine, **spec.tool})
     preset = preset_with(preset, {k: v for k, v in ((k, getattr(spec, k)) for k in ("width", "depth", "holes", "lead_in",
                                                                      "resolution", "dt_safety", "lateral")) if v is not None})
@@ -138,7 +144,9 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
     if preset.width <= sleeve.outer_diameter:
         raise ConfigError(f"preset.width = {preset.width:g} is out of range: allowed > sleeve outer diameter "
                           f"{sleeve.outer_diameter:g} mm")
-    check_sleeve_step(sleeve, soil, res, preset.dt_safety, spec.density_scale or 1.0)
+    density_scale = (1.0 if spec.density_scale is None
+                     else RUN_FIELDS["density_scale"].check("run.density_scale", spec.density_scale))
+    check_sleeve_step(sleeve, soil, res, preset.dt_safety, density_scale)
     lay = layout(disk, speed_kmh, slip, preset.holes, preset.lead_in, preset.run_out,
                  tip_sphere=TIP_SPHERE_RATIO * disk.d)
     soil_params = {k: v for k, v in as_dict(soil).items() if SOIL_DEFAULTS.get(k, object()) != v}  # ids as before
@@ -154,8 +162,8 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
         check_graded(res, [x / 1000 for x in params["bed_size_mm"]], preset.lateral)
     if awake is not None:                   # likewise
         params["awake_mm"] = awake
-    if spec.density_scale is not None and spec.density_scale != 1.0:     # likewise
-        params["density_scale"] = RUN_FIELDS["density_scale"].check("run.density_scale", spec.density_scale)
+    if density_scale != 1.0:                # likewise
+        params["density_scale"] = density_scale
     if len(lay.hole_x) > disk.N:            # likewise
         # punches on a second turn (their sleeves work there too, the punch's angle wrapped): a strip longer than
         # N holes is marked, so its runs are never mistaken for runs made when its sleeves were held rigid
