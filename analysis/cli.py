@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from analysis.core.config import (COLLIDER_STEPS, CONE_FIELDS, ROOT, SEED, THREADS, WORKERS, CommandLine, ConfigError,
+from analysis.core.config import (folder, COLLIDER_STEPS, CONE_FIELDS, ROOT, SEED, THREADS, WORKERS, CommandLine, ConfigError,
                              Field, load_disk, option)
 
 
@@ -85,8 +85,8 @@ def cmd_report(args) -> int:
 
 def cmd_measure(args) -> int:
     from analysis.holes import measure
-    for folder in args.folders:
-        table = measure.run(folder)
+    for run_dir in args.folders:
+        table = measure.run(run_dir)
         print(table.drop(columns=["run"]).round(1).to_string(index=False))
     return 0
 
@@ -286,9 +286,9 @@ def scene_batch_options(p, out_help: str):
     """The options every batch of disk scenes shares (compare, study, calibrate-machine, bench)."""
     p.add_argument("--workers", type=option("--workers", WORKERS), help="runs at a time " + SHARE_HELP)
     p.add_argument("--threads", type=option("--threads", THREADS), help="YADE threads per run " + SHARE_HELP)
-    p.add_argument("--runs-dir", help="runs folder (default results/runs)")
-    p.add_argument("--bed-dir", help="beds folder (default results/beds)")
-    p.add_argument("--out", help=out_help)
+    p.add_argument("--runs-dir", type=folder("--runs-dir"), help="runs folder (default results/runs)")
+    p.add_argument("--bed-dir", type=folder("--bed-dir"), help="beds folder (default results/beds)")
+    p.add_argument("--out", type=folder("--out"), help=out_help)
 
 
 STARTS = Field(1, 1000, kind=int, meaning="optimiser starts")
@@ -303,6 +303,19 @@ def cohesion_range(text: str) -> tuple[float, float]:
         raise argparse.ArgumentTypeError(f"--cohesion-range = {text!r}: allowed lo,hi with lo < hi, each in "
                                          f"{COHESION.allowed()}")
     return values[0], values[1]
+
+
+def scheduler_address(text: str) -> str:
+    """A Dask scheduler's address, PROTOCOL://HOST:PORT or HOST:PORT.
+
+    >>> scheduler_address("tcp://10.0.0.5:8786")
+    'tcp://10.0.0.5:8786'
+    """
+    import re
+    if not re.fullmatch(r"((tcp|tls|ucx|ws|wss)://)?[A-Za-z0-9_.\-\[\]:]+:\d{1,5}", text):
+        raise argparse.ArgumentTypeError(f"--scheduler = {text!r}: allowed a Dask scheduler's address, "
+                                         "tcp://HOST:PORT or HOST:PORT")
+    return text
 
 
 def run_folder(text: str) -> Path:
@@ -325,7 +338,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("theory", help="rigid-punch theory: Table 1 and Figs. 5, 6, 8 analogs (seed 001 §2.3)")
     p.add_argument("--disk", default="configs/disk.toml", help="disk config (default: the seed's disk)")
-    p.add_argument("--out", help="output folder (default results/theory/[disk name])")
+    p.add_argument("--out", type=folder("--out"), help="output folder (default results/theory/[disk name])")
     p.set_defaults(func=cmd_theory)
     scene("bed", "bed.py", "settle and level a soil bed (cached by soil, resolution, size, seed)")
     scene("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)")
@@ -372,7 +385,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_report)
     p = sub.add_parser("rings", help="the pressed ring beside each hole of finished runs, against the plate's level")
     p.add_argument("folders", nargs="+", type=run_folder, help="results/runs/<id> ...")
-    p.add_argument("--out", default="results/comparison/rings")
+    p.add_argument("--out", type=folder("--out"), default="results/comparison/rings")
     p.set_defaults(func=cmd_rings)
     p = sub.add_parser("calibrate-machine", help="fit the penetration and the sleeve's spring on clay's field "
                        "holes (results/calibration/machine.csv, machine_fit.csv)")
@@ -388,8 +401,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--soils", default="clay,loam,sand")
     p.add_argument("--seeds", type=option("--seeds", SEED, many=True), default=[1],
                    help="packing seeds, one run each, e.g. 1,2,3")
-    p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786): the runs go to "
-                   "its workers, as a study's cases do; default: local")
+    p.add_argument("--scheduler", type=scheduler_address, help="Dask distributed scheduler address (tcp://host:8786): "
+                   "the runs go to its workers, as a study's cases do; default: local")
     scene_batch_options(p, "where comparison.csv/.md and comparison/ go (default results)")
     p.add_argument("--no-run", action="store_true", help="measure the finished runs only; run nothing")
     p.add_argument("--kept", action="store_true", help="a run not on this machine but kept beside the table "
@@ -398,7 +411,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
     p.add_argument("file", nargs="+", help="study file(s), e.g. configs/studies/slip.toml; several run as one batch")
-    p.add_argument("--scheduler", help="Dask distributed scheduler address (tcp://host:8786); default: local")
+    p.add_argument("--scheduler", type=scheduler_address,
+                   help="Dask distributed scheduler address (tcp://host:8786); default: local")
     scene_batch_options(p, "table folder (default results/studies)")
     p.add_argument("--export-batch", metavar="TABLE", help="write a yade-batch parameter table instead of running")
     p.add_argument("--no-run", action="store_true", help="table and plot of the cases that finished; run nothing")
@@ -430,13 +444,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("pepper", help="duck-beak mechanism (seed 000): goal-attainment design and results/pepper/")
     p.add_argument("--starts", type=option("--starts", STARTS), default=6,
                    help="optimiser starts: Table 2's initial column + random")
-    p.add_argument("--out", help="output folder (default results/pepper)")
+    p.add_argument("--out", type=folder("--out"), help="output folder (default results/pepper)")
     p.set_defaults(func=cmd_pepper)
     p = sub.add_parser("pepper-frame", help="duck-beak mechanism: infer the frame the text omits from its stated results")
     p.add_argument("--screen", type=option("--screen", SCREEN), default=8000,
                    help="random frames scored per case (the best 12 are fitted)")
     p.add_argument("--workers", type=option("--workers", WORKERS), default=2, help="cases fitted side by side (processes)")
-    p.add_argument("--out", help="output folder (default results/pepper)")
+    p.add_argument("--out", type=folder("--out"), help="output folder (default results/pepper)")
     p.set_defaults(func=cmd_pepper_frame)
     scene("duckbeak", "duckbeak.py", "the duck-beak planter (seed 000) through a ridge bed")
     p = sub.add_parser("params", help="write configs/README.md: every config key, its range, value, meaning, source")

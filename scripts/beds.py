@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import (LATERAL, SEED, THREADS, CommandLine, ConfigError, Resolution, check_lateral,  # noqa: E402
+from analysis.core.config import (folder, LATERAL, SEED, THREADS, CommandLine, ConfigError, Resolution, check_lateral,  # noqa: E402
                              load_resolution, load_soil, option, parse_overrides, soil_with)
 from analysis.core.bed_spec import (BED_DIR, bed_key, check_graded, check_size, check_tiles,  # noqa: E402
                                mean_volume, zones)
@@ -259,7 +259,7 @@ def bed_arguments(description: str, default_size: str, prog: str = "holes bed") 
     p.add_argument("--lateral", default="walls", help="the bed's sides: " + " | ".join(LATERAL))
     p.add_argument("--tiles", type=int, default=1, help="a periodic bed repeated tiles x tiles times (--size: one copy)")
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
-    p.add_argument("--bed-dir", default=str(BED_DIR), help="where beds are kept")
+    p.add_argument("--bed-dir", type=folder("--bed-dir"), default=str(BED_DIR), help="where beds are kept")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
     return p
 

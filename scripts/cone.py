@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import (CONE_DEPTH, CONE_FIELDS, ROOT, SOIL_FIELDS, ConfigError, load_soil,  # noqa: E402
+from analysis.core.config import (folder, CONE_DEPTH, CONE_FIELDS, ROOT, SOIL_FIELDS, ConfigError, load_soil,  # noqa: E402
                                   parse_overrides, soil_with)
 from analysis.core.io import atomic_write  # noqa: E402
 
@@ -180,7 +180,7 @@ def main(argv=None) -> int:
     p.add_argument("--cone-speed", type=float, default=0.3, help="the cone's penetration speed, m/s (default 0.3)")
     p.add_argument("--cohesion", type=float, help="Pa; overrides the soil config's normal and shear cohesion")
     p.add_argument("--depth", type=float, default=CI_DEPTH * 1000, help="deepest base depth, mm (field: 150)")
-    p.add_argument("--out", help="where the resistance CSV goes (default results/cone)")
+    p.add_argument("--out", type=folder("--out"), help="where the resistance CSV goes (default results/cone)")
     p.add_argument("--damage", action="store_true", help="also map the bonds the cone broke (<stem>-damage.csv)")
     a = p.parse_args(argv)
     try:

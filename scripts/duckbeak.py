@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import (ROOT, SEED, THREADS, CommandLine, ConfigError, Field, as_dict,  # noqa: E402
+from analysis.core.config import (folder, ROOT, SEED, THREADS, CommandLine, ConfigError, Field, as_dict,  # noqa: E402
                                   check_table, load_resolution, load_soil, option, parse_overrides, read_toml)
 from analysis.core.bed_spec import BED_DIR  # noqa: E402
 from analysis.core.io import atomic_write, provenance  # noqa: E402
@@ -220,10 +220,10 @@ def main(argv=None) -> int:
     p.add_argument("--set", action="append", metavar="KEY=NUMBER",
                    help="override a number of [planter] or [soil_scene], e.g. D=50, seed=2, relax=0.5")
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
-    p.add_argument("--out", help="runs folder (default results/runs)")
+    p.add_argument("--out", type=folder("--out"), help="runs folder (default results/runs)")
     p.add_argument("--report", default=str(ROOT / "results/pepper/duckbeak"),
                    help="where the hole's table and pictures are copied (default results/pepper/duckbeak)")
-    p.add_argument("--bed-dir", default=str(BED_DIR), help="where beds are kept (default results/beds)")
+    p.add_argument("--bed-dir", type=folder("--bed-dir"), default=str(BED_DIR), help="where beds are kept (default results/beds)")
     p.add_argument("--rerun", action="store_true", help="run again even if this run's folder has a summary")
     a = p.parse_args(argv)
     runs = Path(a.out) if a.out else ROOT / "results/runs"

@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import ROOT, ConfigError, Field, load_soil, parse_overrides, soil_with  # noqa: E402
+from analysis.core.config import ROOT, ConfigError, Field, folder, load_soil, parse_overrides, soil_with  # noqa: E402
 from analysis.core.io import atomic_write  # noqa: E402
 
 STRESS = Field(1.0, 1000.0, unit="kPa", meaning="normal stress on the sample")
@@ -127,7 +127,7 @@ def main(argv=None) -> int:
     p = bed.bed_arguments(__doc__.splitlines()[0], "150,150,100", "holes shear")
     p.add_argument("--stress", default="50,100,200", help="normal stresses, kPa (one sample each)")
     p.add_argument("--speed", type=float, default=0.05, help="shearing speed, m/s (default 0.05)")
-    p.add_argument("--out", help="where the result goes (default results/soils/shear)")
+    p.add_argument("--out", type=folder("--out"), help="where the result goes (default results/soils/shear)")
     a = p.parse_args(argv)
     try:
         stresses = [STRESS.check("shear.stress", float(s)) for s in a.stress.split(",")]

@@ -86,3 +86,71 @@ def test_a_stored_cone_run_at_zero_cohesion_is_found_without_dividing_by_it():
     from analysis.soil.calibrate import same_cohesion
     assert same_cohesion({"cohesion_pa": 0.0}, 0.0) and not same_cohesion({"cohesion_pa": 5000.0}, 0.0)
     assert same_cohesion({"cohesion_pa": 48000.0}, 48000.0 * (1 + 1e-4))
+
+
+@pytest.mark.parametrize("damage", ["no summary", "bad summary", "bad state", "empty state"])
+@pytest.mark.parametrize("command", [["measure"], ["report"], ["rings", "--out", "OUT"]])
+def test_a_broken_run_folder_is_refused_in_one_line(tmp_path, capsys, damage, command):
+    """A kept run copied whole, then one of its files missing or corrupt: every command that reads a run says so
+    in one line with exit 2, no traceback, and writes nothing."""
+    import shutil
+    run = tmp_path / "run"
+    kept = ROOT / "results/comparison/runs/clay-quick-prescribed-b933b74f"
+    shutil.copytree(kept, run)
+    if damage == "no summary":
+        (run / "summary.json").unlink()
+    elif damage == "bad summary":
+        (run / "summary.json").write_text("{")
+    elif damage == "bad state":
+        (run / "state.npz").write_bytes(b"not a zip")
+    else:
+        import numpy as np
+        np.savez(run / "state.npz", other=np.zeros(3))
+    before = sorted(p.name for p in run.iterdir())
+    argv = [c if c != "OUT" else str(tmp_path / "out") for c in command]
+    assert cli.main([*argv[:1], str(run), *argv[1:]]) == 2
+    err = capsys.readouterr().err.strip()
+    assert str(run) in err and "allowed" in err and "\n" not in err and "Traceback" not in err, err
+    assert sorted(p.name for p in run.iterdir()) == before and not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("option", ["--out", "--runs-dir", "--bed-dir"])
+def test_a_folder_option_that_is_a_file_is_refused_before_anything_runs(tmp_path, option, capsys):
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    with pytest.raises(SystemExit) as e:
+        cli.main(["compare", "--no-run", option, str(afile)])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and option in err and "this is a file" in err
+
+
+@pytest.mark.parametrize("command", [["compare"], ["study", "configs/studies/slip.toml"]])
+def test_a_scheduler_that_is_not_an_address_is_refused(command, capsys):
+    with pytest.raises(SystemExit) as e:
+        cli.main([*command, "--scheduler", "notaurl"])
+    assert e.value.code == 2 and "--scheduler" in capsys.readouterr().err
+
+
+def test_a_write_that_fails_leaves_no_temporary_file(tmp_path, monkeypatch):
+    """A full disk found mid-write: the error goes up, the old file stays whole and no temporary file is left."""
+    from pathlib import Path
+    from analysis.core.io import atomic_write
+    target = tmp_path / "table.csv"
+    target.write_text("old\n")
+
+    def full(self, data, *a, **k):
+        Path.write_bytes(self, b"par")
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(Path, "write_text", full)
+    with pytest.raises(OSError, match="No space"):
+        atomic_write(target, "new\n")
+    monkeypatch.undo()
+    assert target.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["table.csv"]
+
+
+@pytest.mark.parametrize("argv", [["study", "configs"], ["calibrate-machine", "configs", "--no-run"],
+                                  ["theory", "--disk", "configs"], ["cone-checks", "configs", "--no-run"]])
+def test_a_folder_where_a_config_file_is_expected_is_refused(argv, capsys):
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "allowed a TOML config file" in err and "\n" not in err

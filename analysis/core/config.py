@@ -103,6 +103,34 @@ def option(name: str, field: Field, many: bool = False):
     return parse
 
 
+def folder(name: str):
+    """An argparse `type` for a folder option: a folder, or one that can be made (its nearest existing parent a
+    writable folder), so a file or a read-only place stops the command line before anything runs.
+
+    >>> folder("--out")("/proc/version")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: --out = '/proc/version': allowed a folder or one that can be made; this is a file
+    """
+    import os
+
+    def parse(text: str) -> Path:
+        path = Path(text)
+        if path.exists() and not path.is_dir():
+            raise argparse.ArgumentTypeError(f"{name} = {text!r}: allowed a folder or one that can be made; this is a file")
+        parent = path
+        while not parent.exists():
+            parent = parent.parent
+        if not parent.is_dir():
+            raise argparse.ArgumentTypeError(f"{name} = {text!r}: allowed a folder or one that can be made; "
+                                             f"{str(parent)!r} is a file")
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise argparse.ArgumentTypeError(f"{name} = {text!r}: allowed a writable folder; {str(parent)!r} is not "
+                                             "writable")
+        return path
+    return parse
+
+
 def invalid_values(field: Field) -> list:
     """Values `field` must refuse, generated from its range and kind as scikit-learn's parameter validation
     generates them: just outside each finite bound, NaN, ±inf and a word (a number for a string field).
@@ -158,6 +186,8 @@ def read_toml(path) -> dict:
             return tomllib.load(f)
     except FileNotFoundError:
         raise ConfigError(f"{path}: no such config file") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as e:
+        raise ConfigError(f"{path}: cannot be read ({type(e).__name__}): allowed a TOML config file") from None
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{path}: not valid TOML: {e}") from None
 

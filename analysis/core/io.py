@@ -78,11 +78,15 @@ def atomic_write(path: Path, data: str | bytes):
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    if isinstance(data, bytes):
-        tmp.write_bytes(data)
-    else:
-        tmp.write_text(data)
-    tmp.replace(path)
+    try:
+        if isinstance(data, bytes):
+            tmp.write_bytes(data)
+        else:
+            tmp.write_text(data)
+        tmp.replace(path)
+    except BaseException:                   # a full disk or a kill mid-write: no temporary file left behind
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def atomic_csv(df: pd.DataFrame, path: Path, note: str | None = None):

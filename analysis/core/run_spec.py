@@ -10,7 +10,7 @@ import json
 import math
 
 from analysis.core.bed_spec import BED_DIR, check_graded
-from analysis.core.config import (AWAKE, SEED, SLIP, THREADS, CommandLine, ConfigError, Field, SOIL_DEFAULTS, as_dict,
+from analysis.core.config import (folder, AWAKE, SEED, SLIP, THREADS, CommandLine, ConfigError, Field, SOIL_DEFAULTS, as_dict,
                                   check_awake,
                                   load_disk, load_machine, load_preset, load_resolution, load_sleeve, load_soil, option,
                                   parse_overrides, preset_with, soil_with, tool_with)
@@ -231,8 +231,8 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=1, help="the bed's packing seed, >= 0 (default 1)")
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
     p.add_argument("--vtk", action="store_true", help="also write VTK files for ParaView")
-    p.add_argument("--out", help="runs folder (default results/runs)")
-    p.add_argument("--bed-dir", default=str(BED_DIR), help="where beds are kept (default results/beds)")
+    p.add_argument("--out", type=folder("--out"), help="runs folder (default results/runs)")
+    p.add_argument("--bed-dir", type=folder("--bed-dir"), default=str(BED_DIR), help="where beds are kept (default results/beds)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
     p.add_argument("--tool", action="append", metavar="PART.KEY=VALUE",
                    help="override a disk or sleeve field, e.g. disk.D=45, sleeve.stiffness=16")

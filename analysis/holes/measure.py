@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import json
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -44,10 +45,18 @@ def kept_holes(folder: Path) -> pd.DataFrame:
 def load_run(folder: Path):
     folder = Path(folder)
     if not (folder / "summary.json").exists():
-        raise FileNotFoundError(f"{folder}: no summary.json (the run did not finish)")
-    cfg = json.loads((folder / "config.json").read_text())
-    summary = json.loads((folder / "summary.json").read_text())
-    state = np.load(folder / "state.npz")
+        raise ConfigError(f"{folder}: no summary.json: allowed the folder of a finished run")
+    try:
+        cfg = json.loads((folder / "config.json").read_text())
+        summary = json.loads((folder / "summary.json").read_text())
+        with np.load(folder / "state.npz") as npz:
+            state = {k: npz[k] for k in npz.files}
+        missing = {"pos", "radius", "initial_pos"} - set(state)
+        if missing:
+            raise KeyError(f"state.npz has no {', '.join(sorted(missing))}")
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
+        raise ConfigError(f"{folder}: its config.json, summary.json or state.npz cannot be read ({type(e).__name__}: "
+                          f"{e}): allowed the files of a finished run") from None
     record = folder / "timeseries.csv"
     if summary.get("mode") == "free" and "hole_x_formed_mm" not in summary and record.exists():
         # a free run from before its summary kept where the holes formed: from its record, as the scene does

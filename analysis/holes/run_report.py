@@ -4,7 +4,6 @@
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -39,10 +38,9 @@ def run(folder) -> list[Path]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from analysis.holes.measure import load_run
     folder = Path(folder)
-    cfg = json.loads((folder / "config.json").read_text())
-    summary = json.loads((folder / "summary.json").read_text())
-    state = np.load(folder / "state.npz")
+    cfg, summary, state = load_run(folder)
     pos, rad, z0 = state["pos"] * 1000, state["radius"] * 1000, float(state["z_surface"]) * 1000
     disp = np.linalg.norm(state["pos"] - state["initial_pos"], axis=1) * 1000
     L, W, _ = cfg["bed_size_mm"]
