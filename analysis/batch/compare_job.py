@@ -153,6 +153,11 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     if earlier:
         cost += (f" Not on this machine, their holes read as measured earlier (comparison/runs/): "
                  f"{', '.join(earlier)}.")
+    resumed = sorted(r["id"] for r in costs.to_dict("records")
+                     if isinstance(r.get("resumed_at_steps"), list) and r["resumed_at_steps"])
+    if resumed:
+        cost += (f" Resumed from a checkpoint (another realisation of the same strip, results/scenes/README.md): "
+                 f"{', '.join(resumed)}.")
     if missing:
         cost += f" Asked for but not in this table (no finished run: failed or not run): {', '.join(missing)}."
     order = compare.ordering(table)
