@@ -5,8 +5,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from analysis.core.config import (folder, COLLIDER_STEPS, CONE_FIELDS, ROOT, SEED, THREADS, WORKERS, CommandLine, ConfigError,
-                             Field, load_disk, option)
+from analysis.core.cli_types import folder, option, CommandLine
+from analysis.core.config import COLLIDER_STEPS, CONE_FIELDS, SEED, THREADS, WORKERS, load_disk
+from analysis.core.schema import ROOT, ConfigError, Field
 
 
 def cmd_theory(args) -> int:
@@ -46,7 +47,8 @@ def cmd_params(args) -> int:
 def cmd_calibrate(args) -> int:
     from analysis.soil import calibrate
     from analysis.core.bed_spec import check_size
-    from analysis.core.config import check_lateral, load_resolution, load_soil
+    from analysis.core.config import check_lateral, load_resolution
+    from analysis.core.soil_config import load_soil
     lo, hi = args.cohesion_range
     try:                                    # every input before any bed or cone scene
         load_soil(args.soil), load_resolution(args.resolution), check_lateral(args.lateral)

@@ -7,8 +7,10 @@ it cannot drift from them (`./holes params` writes it; tests/test_config.py chec
 """
 from __future__ import annotations
 
-from analysis.core.config import (DISK_FIELDS, PRESET_FIELDS, PRESET_OPTIONAL, RESOLUTION_FIELDS, ROOT, SEED,
-                                  SEEDLING_FIELDS, SLEEVE_FIELDS, SOIL_FIELDS, SOILS, Field, read_toml)
+from analysis.core.config import (DISK_FIELDS, PRESET_FIELDS, PRESET_OPTIONAL, RESOLUTION_FIELDS, SEED,
+                                  SEEDLING_FIELDS, SLEEVE_FIELDS)
+from analysis.core.schema import ROOT, read_toml, Field
+from analysis.core.soil_config import SOILS, SOIL_FIELDS
 
 PATH = ROOT / "configs/README.md"
 HEAD = """# Config parameters
@@ -122,8 +124,9 @@ def render() -> str:
 def check_configs():
     """Every config the page shows, loaded and checked as a run would load it: the page is never written from an
     invalid config (a ConfigError names the key)."""
-    from analysis.core.config import load_criteria, load_disk, load_preset, load_resolution, load_seedling, load_sleeve
-    from analysis.core.config import load_soil, table2_row
+    from analysis.core.config import (load_criteria, load_disk, load_preset, load_resolution, load_seedling,
+                                      load_sleeve)
+    from analysis.core.soil_config import load_soil, table2_row
     disk = load_disk(ROOT / "configs/disk.toml")
     load_sleeve(ROOT / "configs/disk.toml", disk)
     for name in read_toml(ROOT / "configs/presets.toml"):

@@ -35,8 +35,10 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import (folder, LATERAL, SEED, THREADS, CommandLine, ConfigError, Resolution, check_lateral,  # noqa: E402
-                             load_resolution, load_soil, option, parse_overrides, soil_with)
+from analysis.core.cli_types import folder, option, CommandLine
+from analysis.core.config import LATERAL, SEED, THREADS, check_lateral, load_resolution, Resolution
+from analysis.core.schema import ConfigError
+from analysis.core.soil_config import load_soil, parse_overrides, soil_with
 from analysis.core.bed_spec import (BED_DIR, bed_key, check_graded, check_size, check_tiles,  # noqa: E402
                                mean_volume, zones)
 from analysis.core.io import atomic_write  # noqa: E402

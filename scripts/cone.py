@@ -24,8 +24,10 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import (folder, CONE_DEPTH, CONE_FIELDS, ROOT, SOIL_FIELDS, ConfigError, load_soil,  # noqa: E402
-                                  parse_overrides, soil_with)
+from analysis.core.cli_types import folder
+from analysis.core.config import CONE_DEPTH, CONE_FIELDS
+from analysis.core.schema import ROOT, ConfigError
+from analysis.core.soil_config import SOIL_FIELDS, load_soil, parse_overrides, soil_with
 from analysis.core.io import atomic_write  # noqa: E402
 
 S313_BASE_DIAMETER = 0.01283     # m

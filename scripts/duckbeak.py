@@ -32,8 +32,10 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import (folder, ROOT, SEED, THREADS, CommandLine, ConfigError, Field, as_dict,  # noqa: E402
-                                  check_table, load_resolution, load_soil, option, parse_overrides, read_toml)
+from analysis.core.cli_types import folder, option, CommandLine
+from analysis.core.config import SEED, THREADS, load_resolution
+from analysis.core.schema import ROOT, as_dict, check_table, read_toml, ConfigError, Field
+from analysis.core.soil_config import load_soil, parse_overrides
 from analysis.core.bed_spec import BED_DIR  # noqa: E402
 from analysis.core.io import atomic_write, provenance  # noqa: E402
 from analysis.core.kinematics import TIP_SPHERE_RATIO  # noqa: E402

@@ -9,7 +9,7 @@ import math
 import os
 from pathlib import Path
 
-from analysis.core.config import ROOT
+from analysis.core.schema import ROOT
 from analysis.core.io import atomic_write, provenance
 from analysis.core.kinematics import blunt_tip
 

@@ -21,7 +21,9 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import ROOT, ConfigError, Field, folder, load_soil, parse_overrides, soil_with  # noqa: E402
+from analysis.core.cli_types import folder# noqa: E402
+from analysis.core.schema import ROOT, ConfigError, Field
+from analysis.core.soil_config import load_soil, parse_overrides, soil_with
 from analysis.core.io import atomic_write  # noqa: E402
 
 STRESS = Field(1.0, 1000.0, unit="kPa", meaning="normal stress on the sample")

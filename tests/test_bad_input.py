@@ -8,8 +8,9 @@ import math
 import pytest
 
 from analysis import cli
-from analysis.core.config import (DISK_FIELDS, PRESET_FIELDS, SLEEVE_FIELDS, SOIL_FIELDS, ConfigError, Field,
-                                  invalid_values)
+from analysis.core.config import DISK_FIELDS, PRESET_FIELDS, SLEEVE_FIELDS
+from analysis.core.schema import invalid_values, ConfigError, Field
+from analysis.core.soil_config import SOIL_FIELDS
 from analysis.core.run_spec import RUN_FIELDS, arguments, plan
 
 SPEC_FIELDS = {k: f for k, f in {**RUN_FIELDS, **PRESET_FIELDS}.items()

@@ -8,7 +8,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from analysis.core.config import ROOT, ConfigError, load_soil
+from analysis.core.schema import ROOT, ConfigError
+from analysis.core.soil_config import load_soil
 from analysis.soil.calibrate import cone_result_name
 from analysis.core.io import read_table
 
@@ -240,7 +241,8 @@ def test_a_cached_bed_settled_for_another_table2_is_refused(tmp_path):
     """The bed's key holds what shapes the packing; its grains' density follows Table 2. A cached bed whose
     metadata says it was settled for another bulk density is refused, not reused under the same key."""
     import json
-    from analysis.core.config import ConfigError, load_soil
+    from analysis.core.schema import ConfigError
+    from analysis.core.soil_config import load_soil
     from scripts.beds import check_cached
     clay = load_soil("clay")
     bed = tmp_path / "clay-x.npz"

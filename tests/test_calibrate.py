@@ -4,7 +4,8 @@ import shutil
 import pytest
 
 from analysis.soil import calibrate
-from analysis.core.config import ROOT, load_soil
+from analysis.core.schema import ROOT
+from analysis.core.soil_config import load_soil
 
 quiet = dict(log=lambda *a: None)
 
@@ -31,8 +32,8 @@ def test_write_back_keeps_comments_and_validates(tmp_path, monkeypatch):
     shutil.copy(ROOT / "configs/soils/sand.toml", soils / "sand.toml")
     shutil.copy(ROOT / "configs/field/table2_soils.csv", tmp_path / "configs/field/table2_soils.csv")
     monkeypatch.setattr(calibrate, "ROOT", tmp_path)
-    import analysis.core.config as config
-    monkeypatch.setattr(config, "ROOT", tmp_path)
+    import analysis.core.schema as schema
+    monkeypatch.setattr(schema, "ROOT", tmp_path)
     calibrate.write_back("sand", ("normal_cohesion", "shear_cohesion"), 12345.0)
     text = (soils / "sand.toml").read_text()
     assert "normal_cohesion = 1.234e+04  # Pa, tensile bond strength" in text
@@ -42,7 +43,7 @@ def test_write_back_keeps_comments_and_validates(tmp_path, monkeypatch):
 
 def test_cone_checks_config_is_checked_before_anything_runs(tmp_path):
     from analysis.soil import cone_checks
-    from analysis.core.config import ConfigError
+    from analysis.core.schema import ConfigError
     cases = cone_checks.load_cases(ROOT / "configs/cone_checks.toml")
     assert {c["check"] for c in cases} == set(cone_checks.CHECKS)
     assert len({(c["bed"], c["cone_scale"]) for c in cases}) == len(cases)          # no case twice
@@ -153,7 +154,7 @@ def test_cone_damage_summary_reads_the_reach_and_refuses_an_empty_folder(tmp_pat
     import json
     import pandas as pd
     from analysis.soil import cone_damage
-    from analysis.core.config import ConfigError
+    from analysis.core.schema import ConfigError
     with pytest.raises(ConfigError, match="no \\*-damage.csv"):
         cone_damage.maps(tmp_path)
     stem = "clay-quick-200x200x280-per-s1-abc-c3-v0.5-coh70000"

@@ -6,7 +6,7 @@ import sys
 import pytest
 
 from analysis import cli
-from analysis.core.config import ROOT, ConfigError
+from analysis.core.schema import ROOT, ConfigError
 
 
 @pytest.mark.parametrize("argv, field", [

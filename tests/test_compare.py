@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from analysis.core.config import ROOT
+from analysis.core.schema import ROOT
 from analysis.core.io import read_table
 from analysis.holes.caliper import LEVEL_BELOW, LEVELS
 

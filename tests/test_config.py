@@ -4,8 +4,9 @@ import math
 import pytest
 
 from analysis import cli, params_doc
-from analysis.core.config import (DISK_FIELDS, PRESET_FIELDS, ROOT, SLEEVE_FIELDS, SOIL_FIELDS, ConfigError, load_disk,
-                             load_seedling)
+from analysis.core.config import DISK_FIELDS, PRESET_FIELDS, SLEEVE_FIELDS, load_disk, load_seedling
+from analysis.core.schema import ROOT, ConfigError
+from analysis.core.soil_config import SOIL_FIELDS
 
 
 def write_disk(tmp_path, **change):
@@ -127,7 +128,8 @@ def test_every_graded_preset_keeps_its_tools_in_the_fine_zone():
     """A graded preset's fine zone holds the plate's path and its machine's deepest tip, each with at least 1.5 fine
     radii of fine grains beyond it (configs/presets.toml, resolutions.toml, machine.toml); the graded study's
     shallower zone (configs/studies/graded.toml) is a study's question, not a preset."""
-    from analysis.core.config import load_preset, load_resolution, read_toml
+    from analysis.core.config import load_preset, load_resolution
+    from analysis.core.schema import read_toml
     from analysis.core.run_spec import plan
     graded = [name for name in read_toml(ROOT / "configs/presets.toml")
               if load_resolution(load_preset(name).resolution).graded]
@@ -164,7 +166,7 @@ def test_a_presets_machine_and_awake_are_checked(tmp_path, extra, pattern):
 def test_table2_is_ranged_like_every_other_config(tmp_path, column, value):
     """A negative density or moisture, a zero or NaN cone index in Table 2 is refused naming the column and
     its range; the committed table passes."""
-    from analysis.core.config import TABLE2, table2_row
+    from analysis.core.soil_config import TABLE2, table2_row
     import pandas as pd
     t = pd.read_csv(TABLE2, comment="#", dtype=str)
     t.loc[t.soil == "clay", column] = value

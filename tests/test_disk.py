@@ -11,7 +11,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.core.config import ROOT, ConfigError, load_disk
+from analysis.core.config import load_disk
+from analysis.core.schema import ROOT, ConfigError
 from analysis.holes.metrology import deficit_centres
 from analysis.holes.theory import hole_spacing
 
@@ -135,10 +136,10 @@ def test_bad_run_input_names_the_field(args, field):
 
 
 def test_the_tool_guard_stops_a_balance_no_force_explains():
-    """The guard on the tools (scripts/disk_parts.py): a finished strip's 2.5 % residual passes; the unstable
+    """The guard on the tools (analysis/core/energy.py): a finished strip's 2.5 % residual passes; the unstable
     sleeve's run (work -577,906 J, residual 107 % of it) stops; so does a residual above half the bed's
     kinetic scale before the tools have worked."""
-    from scripts.disk_parts import tool_guard
+    from analysis.core.energy import tool_guard
     tool_guard({"work_tool": 401.9, "residual": 10.2}, 10.0)
     tool_guard({"work_tool": 0.5, "residual": 4.0}, 10.0)
     for balance in ({"work_tool": -577906.0, "residual": -618000.0}, {"work_tool": 0.5, "residual": 6.0},
@@ -346,7 +347,7 @@ def test_a_killed_sleeping_run_goes_on_from_its_checkpoint(scene_dirs, tmp_path)
 
 @pytest.mark.scene
 def test_sleepers_left_out_of_the_per_body_loops_change_nothing(scene_dirs, tmp_path):
-    """Sleepers sit in a second subdomain, so YADE's integration and force reset skip them (disk_parts.SKIP_SLEEPERS);
+    """Sleepers sit in a second subdomain, so YADE's integration and force reset skip them (awake.SKIP_SLEEPERS);
     the collider and the contacts still have them. On one thread the run is the same bit for bit as one that
     visits every sleeper at every step: a short coarse strip with a narrow window, so that grains are put to sleep
     and woken again many times."""

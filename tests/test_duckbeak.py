@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from analysis.pepper import pepper
-from analysis.core.config import ROOT, ConfigError
+from analysis.core.schema import ROOT, ConfigError
 from scripts import duckbeak
 
 SPEED, OMEGA = 300.0, 2 * math.pi          # configs/pepper.toml [operation]: 0.3 m/s, 60 plants/min

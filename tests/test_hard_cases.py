@@ -12,7 +12,7 @@ import pytest
 
 from analysis.holes import measure
 from analysis.holes.compare import RESIDUAL_LIMIT
-from analysis.core.config import load_soil
+from analysis.core.soil_config import load_soil
 from tests.test_disk import run_scene
 
 CLAY = load_soil("clay")

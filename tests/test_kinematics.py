@@ -4,7 +4,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from analysis.core.config import ConfigError, load_disk, load_preset, load_sleeve, sleeve_from_dict, as_dict
+from analysis.core.config import load_disk, load_preset, load_sleeve, sleeve_from_dict
+from analysis.core.schema import as_dict, ConfigError
 from analysis.core.kinematics import (TIP_SPHERE_RATIO, formed_hole_x, layout, punch_outline, slip_between_holes,
                                      to_axis_frame, wrapped)
 from analysis.holes.measure import hole_centres

@@ -6,7 +6,7 @@ import pytest
 from analysis import cli
 from analysis.batch import machine
 from analysis.holes.compare import field_table
-from analysis.core.config import ROOT, ConfigError
+from analysis.core.schema import ROOT, ConfigError
 
 
 def synthetic_rows(points, holes=2, noise=0.3, seed=1):

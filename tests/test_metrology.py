@@ -7,7 +7,8 @@ import pandas as pd
 import pytest
 
 from analysis.holes import compare
-from analysis.core.config import ROOT, ConfigError, Seedling, load_criteria, threshold
+from analysis.core.config import load_criteria, threshold, Seedling
+from analysis.core.schema import ROOT, ConfigError
 from analysis.core.io import read_table
 from analysis.holes import carved, metrology_band
 from analysis.holes.caliper import JAW, LEVEL_BELOW

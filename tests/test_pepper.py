@@ -120,7 +120,7 @@ def test_a_path_without_a_loop_reports_none():
 
 def test_the_travel_sign_is_a_reading_of_the_text():
     """Eq 16's +vt and §2's direction give different paths from the same linkage; any other sign is refused."""
-    from analysis.core.config import ConfigError
+    from analysis.core.schema import ConfigError
     from analysis.pepper.pepper import check_travel_sign
     link = load_linkage("designed")
     plus, minus = (trajectory_metrics(link, 300.0, OMEGA, sign=s) for s in (1, -1))
@@ -146,7 +146,7 @@ def test_goal_attainment_improves_every_goal_from_the_initial_values():
 
 
 def test_bad_goals_are_a_clear_error(tmp_path):
-    from analysis.core.config import ConfigError
+    from analysis.core.schema import ConfigError
     from analysis.pepper.pepper_design import load_goals
     text = open("configs/pepper.toml").read().replace("weight = [1.0, 1.0, 1.0]", "weight = [1.0, 0.0, 1.0]")
     (tmp_path / "p.toml").write_text(text)

@@ -10,7 +10,7 @@ import sys
 import pytest
 
 from analysis import cli
-from analysis.core.config import ROOT, ConfigError
+from analysis.core.schema import ROOT, ConfigError
 from analysis.core.io import read_table
 from analysis.core.runner import scene_args
 from analysis.batch.study import case_from_table_line, export_batch, load_study

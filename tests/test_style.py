@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from analysis.core.config import ROOT
+from analysis.core.schema import ROOT
 
 LAYERS = {"core": 0, "holes": 1, "soil": 1, "pepper": 1, "batch": 2, "cli": 3, "params_doc": 3}   # lower first
 

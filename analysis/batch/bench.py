@@ -26,7 +26,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.core.config import ROOT, load_preset, load_resolution, load_soil
+from analysis.core.config import load_preset, load_resolution
+from analysis.core.schema import ROOT
+from analysis.core.soil_config import load_soil
 from analysis.core.io import atomic_csv, machine, read_table, stamp
 
 METRICS = ("L0", "L1", "L2", "h1")

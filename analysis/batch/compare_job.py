@@ -22,7 +22,8 @@ import pandas as pd
 
 from analysis.holes import compare, measure, rings
 from analysis.core.runner import finished, plan_case, run_all, say, scene_args
-from analysis.core.config import ROOT, ConfigError, load_criteria, load_preset
+from analysis.core.config import load_criteria, load_preset
+from analysis.core.schema import ROOT, ConfigError
 from analysis.batch.machine import TARGET_METRICS, load_of
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 

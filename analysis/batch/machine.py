@@ -29,7 +29,8 @@ import numpy as np
 import pandas as pd
 
 from analysis.core.runner import finished, run_all, say
-from analysis.core.config import MACHINE, ROOT, ConfigError
+from analysis.core.config import MACHINE
+from analysis.core.schema import ROOT, ConfigError
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
 DESIGN = ROOT / "configs/studies/machine_clay.toml"

@@ -24,7 +24,8 @@ import pandas as pd
 
 from analysis.core.runner import finished, plan_case, run_all, say, scene_args
 from analysis.holes.compare import RESIDUAL_LIMIT, VALIDATED, residual_pct, shift
-from analysis.core.config import ROOT, ConfigError, load_criteria, load_preset, read_toml
+from analysis.core.config import load_criteria, load_preset
+from analysis.core.schema import ROOT, read_toml, ConfigError
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
 METRICS = ("L0", "L1", "L2", "L2_surface", "h1", "C")

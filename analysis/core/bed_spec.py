@@ -6,7 +6,7 @@ import hashlib
 import json
 import math
 
-from analysis.core.config import ROOT, ConfigError, Field
+from analysis.core.schema import ROOT, ConfigError, Field
 
 BED_DIR = ROOT / "results/beds"
 SIZE_FIELDS = {"length": Field(0.02, 3.0, unit="m"), "width": Field(0.02, 1.0, unit="m"), "depth": Field(0.02, 0.5, unit="m")}

@@ -1,7 +1,9 @@
 """Configs are data: TOML files whose every key is known and range-checked before anything runs.
 
-A schema maps each key to a `Field` (type, allowed range, unit, meaning). Unknown keys, missing keys and
-out-of-range values raise `ConfigError` naming the file, the key and the allowed range.
+A schema maps each key to a `Field` (type, allowed range, unit, meaning: analysis/core/schema.py). Unknown keys,
+missing keys and out-of-range values raise `ConfigError` naming the file, the key and the allowed range. Here:
+the disk and its sleeves, presets, the calibrated machine, the seedling and its criteria, grain sizes; the soils
+are in soil_config.py.
 
 >>> disk = load_disk("configs/disk.toml")
 >>> disk.R
@@ -9,197 +11,12 @@ out-of-range values raise `ConfigError` naming the file, the key and the allowed
 """
 from __future__ import annotations
 
-import argparse
-import math
-import tomllib
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+from analysis.core.schema import (ConfigError, Field, as_dict, check_sources, check_table, positive, read_toml,
+                                  split_sections)
 
-
-class ConfigError(ValueError):
-    """A config value is unknown, missing or outside its allowed range."""
-
-
-@dataclass(frozen=True)
-class Field:
-    lo: float = -math.inf
-    hi: float = math.inf
-    lo_open: bool = False
-    hi_open: bool = False
-    kind: type = float
-    unit: str = ""
-    meaning: str = ""
-
-    def allowed(self) -> str:
-        if self.kind is str:
-            return "a string"
-        left = "(" if self.lo_open else "["
-        right = ")" if self.hi_open else "]"
-        lo, hi = (f"{int(v)}" if self.kind is int and math.isfinite(v) else f"{v:g}" for v in (self.lo, self.hi))
-        return f"{left}{lo}, {hi}{right} {self.unit}".rstrip()
-
-    def check(self, where: str, value):
-        if self.kind is str:
-            if not isinstance(value, str):
-                raise ConfigError(f"{where} = {value!r}: must be a string")
-            return value
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"{where} = {value!r}: must be a number in {self.allowed()}")
-        if not math.isfinite(value):
-            raise ConfigError(f"{where} = {value!r} is out of range: allowed {self.allowed()}")
-        if self.kind is int and int(value) != value:
-            raise ConfigError(f"{where} = {value!r}: must be a whole number in {self.allowed()}")
-        ok_lo = value > self.lo if self.lo_open else value >= self.lo
-        ok_hi = value < self.hi if self.hi_open else value <= self.hi
-        if not (ok_lo and ok_hi and math.isfinite(value)):
-            raise ConfigError(f"{where} = {value!r} is out of range: allowed {self.allowed()}")
-        return self.kind(value)
-
-
-def positive(unit="mm", meaning="", kind=float) -> Field:
-    return Field(0.0, math.inf, lo_open=True, hi_open=True, kind=kind, unit=unit, meaning=meaning)
-
-
-class CommandLine(argparse.ArgumentParser):
-    """argparse's parser, whose error is one line, `PROG: MESSAGE (--help lists the options)`, and exit code 2
-    (argparse's own prints the whole usage first); an option is named in full (`--speed` is not taken for
-    `--speed-kmh`), in every command and subcommand."""
-
-    def __init__(self, *args, **kwargs):
-        kwargs.setdefault("allow_abbrev", False)
-        super().__init__(*args, **kwargs)
-
-    def error(self, message):
-        self.exit(2, f"{self.prog}: {message} ({self.prog} --help lists the options)\n")
-
-
-def option(name: str, field: Field, many: bool = False):
-    """An argparse `type` for the option `name`: its text read as `field.kind` (a comma-separated list of them
-    with `many`) and checked against `field`, so a bad value stops the command line with the option, its
-    allowed range and exit code 2 before anything runs.
-
-    >>> option("--threads", THREADS)("2")
-    2
-    >>> option("--seeds", SEED, many=True)("1,2")
-    [1, 2]
-    """
-
-    def parse(text: str):
-        values = []
-        for item in (text.split(",") if many else [text]):
-            try:
-                value = field.kind(item) if field.kind is int else float(item)
-            except ValueError:
-                raise argparse.ArgumentTypeError(f"{name} = {text!r}: allowed {'comma-separated ' if many else ''}"
-                                                 f"{'whole ' if field.kind is int else ''}numbers in {field.allowed()}")
-            try:
-                values.append(field.check(name, value))
-            except ConfigError as e:
-                raise argparse.ArgumentTypeError(str(e))
-        return values if many else values[0]
-    parse.field = field                 # what the option takes, for the generated bad-input test
-    return parse
-
-
-def folder(name: str):
-    """An argparse `type` for a folder option: a folder, or one that can be made (its nearest existing parent a
-    writable folder), so a file or a read-only place stops the command line before anything runs.
-
-    >>> folder("--out")("/proc/version")
-    Traceback (most recent call last):
-    ...
-    argparse.ArgumentTypeError: --out = '/proc/version': allowed a folder or one that can be made; this is a file
-    """
-    import os
-
-    def parse(text: str) -> Path:
-        path = Path(text)
-        if path.exists() and not path.is_dir():
-            raise argparse.ArgumentTypeError(f"{name} = {text!r}: allowed a folder or one that can be made; this is a file")
-        parent = path
-        while not parent.exists():
-            parent = parent.parent
-        if not parent.is_dir():
-            raise argparse.ArgumentTypeError(f"{name} = {text!r}: allowed a folder or one that can be made; "
-                                             f"{str(parent)!r} is a file")
-        if not os.access(parent, os.W_OK | os.X_OK):
-            raise argparse.ArgumentTypeError(f"{name} = {text!r}: allowed a writable folder; {str(parent)!r} is not "
-                                             "writable")
-        return path
-    return parse
-
-
-def invalid_values(field: Field) -> list:
-    """Values `field` must refuse, generated from its range and kind as scikit-learn's parameter validation
-    generates them: just outside each finite bound, NaN, ±inf and a word (a number for a string field).
-
-    >>> invalid_values(Field(0.0, 1.0, lo_open=True))
-    [0.0, 2.0, nan, inf, -inf, 'x']
-    >>> invalid_values(Field(1, 20, kind=int))[:3]
-    [0.0, 40, 1.5]
-    """
-    if field.kind is str:
-        return [3.0]
-    out = []
-    if math.isfinite(field.lo):
-        out.append(field.lo if field.lo_open else field.lo - max(1.0, abs(field.lo)))
-    if math.isfinite(field.hi):
-        out.append(field.hi if field.hi_open else field.hi + max(1.0, abs(field.hi)))
-    if field.kind is int:
-        out.append((field.lo if math.isfinite(field.lo) else 0) + 0.5)
-    return [*out, math.nan, math.inf, -math.inf, "x"]
-
-
-def number(value, where: str, field: Field):
-    """A config or command-line value as a number for `field`: a word is refused naming `where` and the range."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return value
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise ConfigError(f"{where} = {value!r}: must be a number, allowed {field.allowed()}") from None
-
-
-def check_table(where: str, table: dict, schema: dict[str, Field], optional: dict | None = None) -> dict:
-    """Validate one TOML table against a schema; `optional` gives defaults for keys that may be absent."""
-    optional = optional or {}
-    if not isinstance(table, dict):
-        raise ConfigError(f"{where}: expected a table of keys")
-    unknown = sorted(set(table) - set(schema))
-    if unknown:
-        raise ConfigError(f"{where}: unknown key(s) {', '.join(unknown)}; known keys: {', '.join(schema)}")
-    missing = sorted(set(schema) - set(table) - set(optional))
-    if missing:
-        raise ConfigError(f"{where}: missing key(s) {', '.join(missing)}")
-    merged = {**optional, **table}
-    return {k: schema[k].check(f"{where}.{k}", merged[k]) for k in schema}
-
-
-def read_toml(path) -> dict:
-    path = Path(path)
-    if not path.is_absolute() and not path.exists():
-        path = ROOT / path
-    try:
-        with open(path, "rb") as f:
-            return tomllib.load(f)
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: no such config file") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as e:
-        raise ConfigError(f"{path}: cannot be read ({type(e).__name__}): allowed a TOML config file") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path}: not valid TOML: {e}") from None
-
-
-def split_sections(path, data: dict, known: set[str]) -> dict:
-    unknown = sorted(set(data) - known)
-    if unknown:
-        raise ConfigError(f"{path}: unknown section(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
-    return data
-
-
-# --- the hole-forming disk (seed 001 §2.4) ---------------------------------------------------------------
 
 SLIP = Field(0.0, 0.9, meaning="slip rate δ = 1 − r/R (eq 1); the one range of every run, study and disk config")
 THREADS = Field(1, 64, kind=int, meaning="YADE (OpenMP) threads per scene")
@@ -446,14 +263,6 @@ def preset_with(preset: Preset, changes: dict) -> Preset:
     return dataclasses.replace(preset, **checked)
 
 
-def check_sources(path, sources: dict, schema: dict):
-    unknown = sorted(set(sources) - set(schema))
-    if unknown:
-        raise ConfigError(f"{path}: [source] names unknown key(s) {', '.join(unknown)}")
-
-
-# --- the pot seedling (seed 001 §1.1) and the pass criteria (§4.2) -----------------------------------------
-
 SEEDLING_FIELDS = {
     "a1": positive(meaning="upper side of the square pot"),
     "a2": positive(meaning="lower side of the square pot"),
@@ -518,112 +327,6 @@ def load_criteria(path="configs/seedling.toml") -> dict[str, dict[str, float]]:
     return out
 
 
-def as_dict(obj) -> dict:
-    return {f.name: getattr(obj, f.name) for f in fields(obj)}
-
-
-# --- soils (seed 001 Table 2 targets + contact physics) -----------------------------------------------------
-
-SOIL_FIELDS = {
-    "young": Field(1e5, 1e10, unit="Pa", meaning="contact modulus"),
-    "poisson": Field(0.0, 0.5, hi_open=True, meaning="contact shear stiffness / normal stiffness (YADE's FrictMat poisson)"),
-    "friction_deg": Field(0.0, 60.0, unit="deg", meaning="inter-particle friction angle"),
-    "rolling_stiffness": Field(0.0, 10.0, meaning="alphaKr: rolling stiffness / shear stiffness"),
-    "rolling_friction": Field(0.0, 5.0, meaning="etaRoll: plastic rolling moment limit / (radius · normal force)"),
-    "normal_cohesion": Field(0.0, 1e8, unit="Pa", meaning="tensile bond strength per contact area"),
-    "shear_cohesion": Field(0.0, 1e8, unit="Pa", meaning="shear bond strength per contact area"),
-    "damping": Field(0.0, 0.9, meaning="YADE local damping in tool scenes"),
-    "new_contact_cohesion": Field(0.0, 1.0, meaning="the bond a contact made after disturbance gets, as a fraction "
-                                  "of the intact bonds' strength (1: moist soil re-adheres fully; 0: friction only)"),
-}
-SOIL_DEFAULTS = {"new_contact_cohesion": 1.0}     # optional in a soil config; a run's id leaves a default out
-SOILS = ("clay", "loam", "sand")
-
-
-@dataclass(frozen=True)
-class Soil:
-    """One soil: contact physics from configs/soils/<name>.toml, field targets from seed 001 Table 2."""
-    name: str
-    young: float
-    poisson: float
-    friction_deg: float
-    rolling_stiffness: float
-    rolling_friction: float
-    normal_cohesion: float
-    shear_cohesion: float
-    damping: float
-    bulk_density: float      # kg/m3, dry, Table 2
-    cone_index: float        # Pa, mean over 0-150 mm, Table 2
-    moisture: float          # mass fraction of water to dry soil, Table 2
-    new_contact_cohesion: float = 1.0   # fraction of the intact bonds' strength a new contact gets
-
-    @property
-    def wet_density(self) -> float:
-        """Mass of moist soil per bed volume, ρ_d(1 + w): what the particles must weigh."""
-        return self.bulk_density * (1.0 + self.moisture)
-
-    def settling_key(self) -> dict:
-        """The parameters that shape a settled packing (cohesion is switched on after settling)."""
-        return {"friction_deg": self.friction_deg, "rolling_stiffness": self.rolling_stiffness,
-                "rolling_friction": self.rolling_friction, "poisson": self.poisson}
-
-
-TABLE2 = ROOT / "configs/field/table2_soils.csv"
-TABLE2_FIELDS = {       # seed 001 Table 2's columns, ranged like every other config value
-    "bulk_density_g_cm3": Field(0.5, 2.5, unit="g/cm³", meaning="dry bulk density of the field soil"),
-    "cone_index_kPa": Field(0.0, 1e4, lo_open=True, unit="kPa", meaning="cone index, mean over 0-150 mm"),
-    "moisture_percent": Field(0.0, 100.0, hi_open=True, unit="%", meaning="moisture, mass of water to dry soil"),
-}
-
-
-def table2_row(name: str, where: str, path=TABLE2) -> dict:
-    """A soil's row of seed 001 Table 2, every number checked against TABLE2_FIELDS."""
-    import csv
-    with open(path) as f:
-        rows = {r["soil"]: r for r in csv.DictReader(line for line in f if not line.startswith("#"))}
-    if name not in rows:
-        raise ConfigError(f"{where}: soil {name!r} is not in seed 001 Table 2; allowed: {', '.join(rows)}")
-    out = {}
-    for key, field in TABLE2_FIELDS.items():
-        text = rows[name].get(key)
-        try:
-            value = float(text)
-        except (TypeError, ValueError):
-            raise ConfigError(f"{path}: {name}.{key} = {text!r}: must be a number, allowed {field.allowed()}") from None
-        out[key] = field.check(f"{path}: {name}.{key}", value)
-    return out
-
-
-def soil_from_dict(name: str, values: dict, where: str) -> Soil:
-    v = check_table(where, values, SOIL_FIELDS, optional=SOIL_DEFAULTS)
-    t = table2_row(name, where)
-    return Soil(name=name, **v, bulk_density=1000 * t["bulk_density_g_cm3"],
-                cone_index=1000 * t["cone_index_kPa"], moisture=t["moisture_percent"] / 100)
-
-
-def load_soil(name_or_path) -> Soil:
-    """Load `clay`, `loam`, `sand` or a path to a soil TOML whose file name is one of those."""
-    path = Path(name_or_path)
-    if path.suffix != ".toml":
-        if str(name_or_path) not in SOILS:
-            raise ConfigError(f"soil = {name_or_path!r}: allowed {', '.join(SOILS)} or a path to a soil .toml")
-        path = ROOT / "configs/soils" / f"{name_or_path}.toml"
-    data = split_sections(path, read_toml(path), {"soil", "source"})
-    check_sources(path, data.get("source", {}), SOIL_FIELDS)
-    return soil_from_dict(path.stem, data.get("soil", {}), f"{path}: soil")
-
-
-def soil_with(soil: Soil, overrides: dict) -> Soil:
-    """The soil with some contact parameters replaced (`--set key=value`), each checked against SOIL_FIELDS."""
-    import dataclasses
-    unknown = sorted(set(overrides) - set(SOIL_FIELDS))
-    if unknown:
-        raise ConfigError(f"soil override {', '.join(unknown)}: allowed keys {', '.join(SOIL_FIELDS)}")
-    checked = {k: SOIL_FIELDS[k].check(f"soil override {k}", number(v, f"soil override {k}", SOIL_FIELDS[k]))
-               for k, v in overrides.items()}
-    return dataclasses.replace(soil, **checked)
-
-
 def tool_with(disk: Disk, sleeve: Sleeve, changes: dict) -> tuple[Disk, Sleeve]:
     """The disk and sleeve with some fields replaced (`--tool disk.D=45`, `--tool sleeve.stiffness=16`), checked
     as the config files are (ranges and the cross-checks between fields)."""
@@ -638,20 +341,6 @@ def tool_with(disk: Disk, sleeve: Sleeve, changes: dict) -> tuple[Disk, Sleeve]:
         target[field] = value
     disk = disk_from_dict(d, "tool override: disk", name)
     return disk, sleeve_from_dict(s, disk, "tool override: sleeve")
-
-
-def parse_overrides(items) -> dict:
-    """`["friction_deg=20", ...]` -> {"friction_deg": 20.0}; a malformed item is a ConfigError."""
-    out = {}
-    for item in items or ():
-        key, sep, value = item.partition("=")
-        try:
-            out[key.strip()] = float(value)
-        except ValueError:
-            sep = ""
-        if not sep:
-            raise ConfigError(f"{item!r}: write KEY=NUMBER, e.g. friction_deg=20 or disk.D=45")
-    return out
 
 
 RESOLUTION_FIELDS = {

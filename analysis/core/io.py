@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.core.config import ROOT
+from analysis.core.schema import ROOT
 
 
 def head() -> str:

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.core.config import ConfigError, Disk
+from analysis.core.config import Disk
+from analysis.core.schema import ConfigError
 
 TIP_SPHERE_RATIO = 0.2      # blunt tip: inscribed sphere radius / punch radius (scripts/disk_parts.py builds it)
 START_MARGIN_DEG = 3.0      # punch 0 starts this far before it first touches the surface

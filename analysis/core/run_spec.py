@@ -10,10 +10,11 @@ import json
 import math
 
 from analysis.core.bed_spec import BED_DIR, check_graded
-from analysis.core.config import (folder, AWAKE, SEED, SLIP, THREADS, CommandLine, ConfigError, Field, SOIL_DEFAULTS, as_dict,
-                                  check_awake,
-                                  load_disk, load_machine, load_preset, load_resolution, load_sleeve, load_soil, option,
-                                  parse_overrides, preset_with, soil_with, tool_with)
+from analysis.core.cli_types import folder, option, CommandLine
+from analysis.core.config import (AWAKE, SEED, SLIP, THREADS, check_awake, load_disk, load_machine,
+                                  load_preset, load_resolution, load_sleeve, preset_with, tool_with)
+from analysis.core.schema import as_dict, ConfigError, Field
+from analysis.core.soil_config import SOIL_DEFAULTS, load_soil, parse_overrides, soil_with
 from analysis.core.kinematics import TIP_SPHERE_RATIO, layout
 
 CHECKPOINT_EVERY = 600.0    # s of wall time between checkpoints of an unfinished run (0: none)
@@ -84,7 +85,7 @@ def check_sleeve_step(sleeve, soil, res, dt_safety: float, density_scale: float 
     ... # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    analysis.core.config.ConfigError: sleeve.mass = 1e-09 kg is out of range for this scene: allowed >= 0.083 kg ...
+    analysis.core.schema.ConfigError: sleeve.mass = 1e-09 kg is out of range for this scene: allowed >= 0.083 kg ...
     """
     r_mean = res.radius
     r_min = res.radius * (1 - res.spread)

@@ -15,7 +15,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
-from analysis.core.config import ROOT, ConfigError
+from analysis.core.schema import ROOT, ConfigError
 from analysis.core.io import say  # noqa: F401  (the batch's progress lines; imported from here by its callers)
 
 # A case's fields, named as in the seed and the configs, and the scripts/disk.py options that set them.

@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.core.config import ConfigError, Resolution, load_seedling
+from analysis.core.config import load_seedling, Resolution
+from analysis.core.schema import ConfigError
 from analysis.core.io import atomic_csv, read_table, stamp
 from analysis.core.kinematics import formed_hole_x
 from analysis.holes.metrology import DEPTHS, measure_state

@@ -12,7 +12,8 @@ import numpy as np
 import pandas as pd
 
 from analysis.holes import theory
-from analysis.core.config import ROOT, Disk
+from analysis.core.config import Disk
+from analysis.core.schema import ROOT
 from analysis.core.io import atomic_csv, read_table, stamp
 
 SLIPS = (0.0, 0.10, 0.20, 0.25)

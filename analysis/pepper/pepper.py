@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from analysis.core.config import ConfigError, read_toml
+from analysis.core.schema import read_toml, ConfigError
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from analysis.core.config import ConfigError, read_toml
+from analysis.core.schema import read_toml, ConfigError
 from analysis.pepper.pepper import (ANGLES, SPREAD_READINGS, Linkage, assembly_margin, bottom_window, check_travel_sign,
                              dead_point_margin, linkage_to_config, load_linkage, motion, solve, trajectory,
                              trajectory_metrics)

@@ -13,7 +13,8 @@ from pathlib import Path
 import pandas as pd
 
 from analysis.core.runner import run_process, say
-from analysis.core.config import ROOT, ConfigError, load_soil
+from analysis.core.schema import ROOT, ConfigError
+from analysis.core.soil_config import load_soil
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
 TOLERANCE = 0.05

@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 
 from analysis.soil.calibrate import TOLERANCE, cone_result_name
-from analysis.core.config import ROOT, SOILS, load_soil
+from analysis.core.schema import ROOT
+from analysis.core.soil_config import SOILS, load_soil
 from analysis.core.io import atomic_csv, read_table, stamp
 
 CAL = ROOT / "results/calibration"

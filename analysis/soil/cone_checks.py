@@ -29,7 +29,9 @@ import pandas as pd
 from analysis.core.runner import say
 from analysis.soil.calibrate import cone_index, cone_run, same_cohesion, stored_cone
 from analysis.soil.calibration_report import CAL, core_density
-from analysis.core.config import ROOT, SEED, ConfigError, Field, check_lateral, check_table, load_resolution, load_soil, read_toml
+from analysis.core.config import SEED, check_lateral, load_resolution
+from analysis.core.schema import ROOT, check_table, read_toml, ConfigError, Field
+from analysis.core.soil_config import load_soil
 from analysis.core.io import atomic_csv, read_table, stamp
 from analysis.core.bed_spec import TILES, bed_key, check_size, check_tiles
 from analysis.core.config import CONE_FIELDS

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.core.config import ConfigError
+from analysis.core.schema import ConfigError
 from analysis.core.io import atomic_csv, stamp
 
 FAR = 0.10          # broken fraction drawn as the plot's guide line

@@ -1,0 +1,122 @@
+"""The soils: contact physics from configs/soils/<name>.toml, field targets from seed 001 Table 2
+(configs/field/table2_soils.csv), each key range-checked before anything runs."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from analysis.core.schema import ROOT, ConfigError, Field, check_sources, check_table, number, read_toml, split_sections
+
+
+SOIL_FIELDS = {
+    "young": Field(1e5, 1e10, unit="Pa", meaning="contact modulus"),
+    "poisson": Field(0.0, 0.5, hi_open=True, meaning="contact shear stiffness / normal stiffness (YADE's FrictMat poisson)"),
+    "friction_deg": Field(0.0, 60.0, unit="deg", meaning="inter-particle friction angle"),
+    "rolling_stiffness": Field(0.0, 10.0, meaning="alphaKr: rolling stiffness / shear stiffness"),
+    "rolling_friction": Field(0.0, 5.0, meaning="etaRoll: plastic rolling moment limit / (radius · normal force)"),
+    "normal_cohesion": Field(0.0, 1e8, unit="Pa", meaning="tensile bond strength per contact area"),
+    "shear_cohesion": Field(0.0, 1e8, unit="Pa", meaning="shear bond strength per contact area"),
+    "damping": Field(0.0, 0.9, meaning="YADE local damping in tool scenes"),
+    "new_contact_cohesion": Field(0.0, 1.0, meaning="the bond a contact made after disturbance gets, as a fraction "
+                                  "of the intact bonds' strength (1: moist soil re-adheres fully; 0: friction only)"),
+}
+SOIL_DEFAULTS = {"new_contact_cohesion": 1.0}     # optional in a soil config; a run's id leaves a default out
+SOILS = ("clay", "loam", "sand")
+
+
+@dataclass(frozen=True)
+class Soil:
+    """One soil: contact physics from configs/soils/<name>.toml, field targets from seed 001 Table 2."""
+    name: str
+    young: float
+    poisson: float
+    friction_deg: float
+    rolling_stiffness: float
+    rolling_friction: float
+    normal_cohesion: float
+    shear_cohesion: float
+    damping: float
+    bulk_density: float      # kg/m3, dry, Table 2
+    cone_index: float        # Pa, mean over 0-150 mm, Table 2
+    moisture: float          # mass fraction of water to dry soil, Table 2
+    new_contact_cohesion: float = 1.0   # fraction of the intact bonds' strength a new contact gets
+
+    @property
+    def wet_density(self) -> float:
+        """Mass of moist soil per bed volume, ρ_d(1 + w): what the particles must weigh."""
+        return self.bulk_density * (1.0 + self.moisture)
+
+    def settling_key(self) -> dict:
+        """The parameters that shape a settled packing (cohesion is switched on after settling)."""
+        return {"friction_deg": self.friction_deg, "rolling_stiffness": self.rolling_stiffness,
+                "rolling_friction": self.rolling_friction, "poisson": self.poisson}
+
+
+TABLE2 = ROOT / "configs/field/table2_soils.csv"
+TABLE2_FIELDS = {       # seed 001 Table 2's columns, ranged like every other config value
+    "bulk_density_g_cm3": Field(0.5, 2.5, unit="g/cm³", meaning="dry bulk density of the field soil"),
+    "cone_index_kPa": Field(0.0, 1e4, lo_open=True, unit="kPa", meaning="cone index, mean over 0-150 mm"),
+    "moisture_percent": Field(0.0, 100.0, hi_open=True, unit="%", meaning="moisture, mass of water to dry soil"),
+}
+
+
+def table2_row(name: str, where: str, path=TABLE2) -> dict:
+    """A soil's row of seed 001 Table 2, every number checked against TABLE2_FIELDS."""
+    import csv
+    with open(path) as f:
+        rows = {r["soil"]: r for r in csv.DictReader(line for line in f if not line.startswith("#"))}
+    if name not in rows:
+        raise ConfigError(f"{where}: soil {name!r} is not in seed 001 Table 2; allowed: {', '.join(rows)}")
+    out = {}
+    for key, field in TABLE2_FIELDS.items():
+        text = rows[name].get(key)
+        try:
+            value = float(text)
+        except (TypeError, ValueError):
+            raise ConfigError(f"{path}: {name}.{key} = {text!r}: must be a number, allowed {field.allowed()}") from None
+        out[key] = field.check(f"{path}: {name}.{key}", value)
+    return out
+
+
+def soil_from_dict(name: str, values: dict, where: str) -> Soil:
+    v = check_table(where, values, SOIL_FIELDS, optional=SOIL_DEFAULTS)
+    t = table2_row(name, where)
+    return Soil(name=name, **v, bulk_density=1000 * t["bulk_density_g_cm3"],
+                cone_index=1000 * t["cone_index_kPa"], moisture=t["moisture_percent"] / 100)
+
+
+def load_soil(name_or_path) -> Soil:
+    """Load `clay`, `loam`, `sand` or a path to a soil TOML whose file name is one of those."""
+    path = Path(name_or_path)
+    if path.suffix != ".toml":
+        if str(name_or_path) not in SOILS:
+            raise ConfigError(f"soil = {name_or_path!r}: allowed {', '.join(SOILS)} or a path to a soil .toml")
+        path = ROOT / "configs/soils" / f"{name_or_path}.toml"
+    data = split_sections(path, read_toml(path), {"soil", "source"})
+    check_sources(path, data.get("source", {}), SOIL_FIELDS)
+    return soil_from_dict(path.stem, data.get("soil", {}), f"{path}: soil")
+
+
+def soil_with(soil: Soil, overrides: dict) -> Soil:
+    """The soil with some contact parameters replaced (`--set key=value`), each checked against SOIL_FIELDS."""
+    import dataclasses
+    unknown = sorted(set(overrides) - set(SOIL_FIELDS))
+    if unknown:
+        raise ConfigError(f"soil override {', '.join(unknown)}: allowed keys {', '.join(SOIL_FIELDS)}")
+    checked = {k: SOIL_FIELDS[k].check(f"soil override {k}", number(v, f"soil override {k}", SOIL_FIELDS[k]))
+               for k, v in overrides.items()}
+    return dataclasses.replace(soil, **checked)
+
+
+def parse_overrides(items) -> dict:
+    """`["friction_deg=20", ...]` -> {"friction_deg": 20.0}; a malformed item is a ConfigError."""
+    out = {}
+    for item in items or ():
+        key, sep, value = item.partition("=")
+        try:
+            out[key.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise ConfigError(f"{item!r}: write KEY=NUMBER, e.g. friction_deg=20 or disk.D=45")
+    return out
