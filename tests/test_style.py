@@ -8,7 +8,7 @@ import pytest
 
 from analysis.core.schema import ROOT
 
-LAYERS = {"core": 0, "holes": 1, "soil": 1, "pepper": 1, "batch": 2, "cli": 3, "params_doc": 3}   # lower first
+LAYERS = {"core": 0, "holes": 1, "soil": 1, "pepper": 1, "batch": 2, "cli": 3, "commands": 3, "params_doc": 3}
 
 
 def layer(module: str) -> int | None:

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.holes import compare, measure, rings
+from analysis.holes import compare, compare_report, measure, rings
 from analysis.core.runner import finished, plan_case, run_all, say, scene_args
 from analysis.core.config import load_criteria, load_preset
 from analysis.core.schema import ROOT, ConfigError
@@ -168,7 +168,7 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
                                              f"({'resolved' if v['resolved'] else 'not resolved'})"
                                              for step, v in o["steps"].items()))
         for m, o in order.items())
-    md = compare.markdown(table.drop(columns="preset"), preset, note + "\n\n" + cost)
+    md = compare_report.markdown(table.drop(columns="preset"), preset, note + "\n\n" + cost)
     if order_text:
         md += f"\nSoil ordering (clay > loam > sand): {order_text}.\n"
     bound = float(table[table.metric == "L2"].theory_envelope.iloc[0])     # the swept envelope's L2
@@ -208,7 +208,7 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     mds = sorted((p for p in folder.glob("*.md") if p.name != "README.md"),
                  key=lambda p: (MD_ORDER.index(p.stem) if p.stem in MD_ORDER else len(MD_ORDER), p.stem))
     atomic_write(out / "comparison.md", "\n".join(p.read_text() for p in mds))
-    compare.plot(table[table.preset == preset], holes, field, preset, folder, note)
+    compare_report.plot(table[table.preset == preset], holes, field, preset, folder, note)
     atomic_csv(compare.field_consistency(field, criteria["stated"]), folder / "field_consistency.csv",
                "can each field run's pass rate be true under the stated criteria? see analysis/holes/compare.py")
     for c in local:
