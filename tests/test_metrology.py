@@ -108,7 +108,7 @@ RADII = metrology_band.RADII          # every grain radius a preset uses
 @functools.lru_cache(maxsize=None)
 def carved_rows(r):
     """The carved holes of one soil's bed at grain radius r, one place: every shape, both carvings."""
-    return metrology_band.measure_carved(r, realisations=1, soils=1)
+    return metrology_band.measure_carved(r, realisations=1, soils=1, candidates=[(JAW, LEVEL_BELOW)])
 
 
 @pytest.mark.parametrize("r", RADII)

@@ -55,9 +55,11 @@ def places(bed: Path, n: int):
         yield p, rad[keep], width
 
 
-def measure_carved(radius: float, realisations: int = REALISATIONS, soils: int | None = None) -> pd.DataFrame:
+def measure_carved(radius: float, realisations: int = REALISATIONS, soils: int | None = None,
+                   candidates=None) -> pd.DataFrame:
     """One row per carved hole, candidate and metric: measured and true value (mm); `soils`: only the first
-    so many soils' beds."""
+    so many soils' beds; `candidates`: (jaw, level) pairs to read with (default: every JAWS at every level)."""
+    candidates = candidates or [(jaw, below) for jaw in JAWS for below in sorted({*LEVEL_CANDIDATES, *LEVELS})]
     rows = []
     truths = {(s, b): carved.truth(s, b) for s in carved.SHAPES for b in (*LEVEL_CANDIDATES, *LEVELS)}
     for bed in beds(radius)[:soils]:
@@ -78,14 +80,13 @@ def measure_carved(radius: float, realisations: int = REALISATIONS, soils: int |
                         value = hole.L2 + hole.h1 if m == "L2_surface" else getattr(hole, m)
                         rows.append({**base, "jaw": np.nan, "below": np.nan, "metric": m, "measured": value,
                                      "true": t[m]})
-                    for jaw in JAWS:
-                        for below in sorted({*LEVEL_CANDIDATES, *LEVELS}):
-                            r = caliper_reading((pos, rad), hole.x0, hole.y0, hole.z_open, jaw, below,
-                                                float(rad.mean()), carved.D)
-                            t = truths[(shape, below)]
-                            for m in ("L0", "L1"):
-                                rows.append({**base, "jaw": jaw.name, "below": below, "metric": m,
-                                             "measured": getattr(r, m), "true": t[m]})
+                    for jaw, below in candidates:
+                        r = caliper_reading((pos, rad), hole.x0, hole.y0, hole.z_open, jaw, below,
+                                            float(rad.mean()), carved.D)
+                        t = truths[(shape, below)]
+                        for m in ("L0", "L1"):
+                            rows.append({**base, "jaw": jaw.name, "below": below, "metric": m,
+                                         "measured": getattr(r, m), "true": t[m]})
     out = pd.DataFrame(rows)
     out["error"] = out.measured - out.true
     return out
