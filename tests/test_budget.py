@@ -1,0 +1,41 @@
+"""The error budget's tools (analysis/holes/budget.py) on made-up cases: the r -> 0 limit of a power law, parts that
+add up, and a screening that finds the one unknown that matters."""
+import numpy as np
+import pytest
+
+from analysis.holes.budget import budget, extrapolate, morris, morris_design, power_law, within_of_limit
+
+
+@pytest.mark.parametrize("order", [1.0, 1.5, 2.0])
+def test_the_extrapolation_recovers_the_limit_of_a_made_up_power_law_through_its_scatter(order):
+    """h1-like: 14 mm at r -> 0, rising with the grain radius, each mean off by its standard error (0.5 mm) at the
+    radii the presets use; the limit lies in the interval, and the interval is not wider than the scatter allows."""
+    radii = np.array([8.0, 6.0, 5.0, 4.0, 3.0])
+    rng = np.random.default_rng(int(10 * order))
+    means = power_law(radii, 14.0, 0.4, order) + rng.normal(0, 0.5, len(radii))
+    r = extrapolate(radii, means, [0.5] * len(radii), n_boot=300)
+    assert r["m0_lo"] <= 14.0 <= r["m0_hi"] and r["fitted_order"], r       # the order fitted: a wide interval
+    known = extrapolate(radii, means, [0.5] * len(radii), n_boot=300, p=order, fit_order=False)
+    assert known["m0_lo"] <= 14.0 <= known["m0_hi"] and known["m0_hi"] - known["m0_lo"] < 4.0, known
+    assumed = extrapolate(radii[:3], power_law(radii[:3], 14.0, 0.4, 1.0), [0.01] * 3, p=1.0, n_boot=100)
+    assert assumed["m0"] == pytest.approx(14.0, abs=0.05) and not assumed["fitted_order"]
+
+
+def test_the_budgets_parts_add_up_on_a_made_up_case():
+    b = budget(63.4, 62.1, 60.9, measurement=11.2, machine=3.0, soil=2.0, packing=1.5)
+    assert b["grain_size"] + b["model"] == pytest.approx(b["miss"])
+    assert b["uncertain"] == pytest.approx(np.sqrt(11.2 ** 2 + 3 ** 2 + 2 ** 2 + 1.5 ** 2))
+    assert not b["resolved"] and b["dominant"] == "measurement"
+    with pytest.raises(ValueError, match="unknown part"):
+        budget(1.0, 0.0, 0.5, weather=1.0)
+
+
+def test_a_limit_within_5_pct_is_claimed_only_with_its_whole_interval():
+    limit = {"m0": 60.0, "m0_lo": 58.5, "m0_hi": 62.0}
+    assert within_of_limit(60.5, limit, 62.1) and not within_of_limit(63.0, limit, 62.1)
+
+
+def test_morris_screening_ranks_the_unknown_that_matters_first():
+    problem, X = morris_design({"penetration": (70, 95), "spring": (0.5, 8), "preload": (0, 50)}, trajectories=20)
+    ranks = morris(problem, X, 0.8 * X[:, 0] + 0.05 * X[:, 1] + 0 * X[:, 2])
+    assert list(ranks) == ["penetration", "spring", "preload"] and ranks["preload"]["mu_star"] < 1e-9
