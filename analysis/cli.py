@@ -163,7 +163,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "`bench peer`: one bed and punch in LIGGGHTS and in YADE (scripts/peer.py); "
                        "`bench collider --run R`: contact detection settings on run R's strip from its checkpoint, "
                        "`bench profile --run R`: where its time goes, per part (scripts/collider_bench.py)")
-    p.add_argument("what", choices=["beds", "runs", "ladder", "economies", "convergence", "presets", "speed-vs-error",
+    p.add_argument("what", choices=["beds", "runs", "ladder", "economies", "convergence", "grain-size", "presets",
+                                    "speed-vs-error",
                                     "peer", "collider", "profile"])
     p.add_argument("--against", default="validation_surface",
                    help="presets: the reference preset (default validation_surface); every preset in "

@@ -224,6 +224,9 @@ def cmd_bench(args) -> int:
         except ValueError as e:
             print(e, file=sys.stderr)
             return 2
+    if args.what == "grain-size":
+        from analysis.batch import bench_reference
+        return bench_reference.run_grain_size(args.out)
     if args.what == "speed-vs-error":
         from analysis.batch import bench_reference
         return bench_reference.run_speed_vs_error(args.out)

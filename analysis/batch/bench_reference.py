@@ -226,6 +226,66 @@ def run_convergence(workers: int, threads: int, runs_dir=None, bed_dir=None, out
     return code
 
 
+# The grain size's share (`./holes bench grain-size`): each metric of the convergence study's clay hole (r = 8 ... 3
+# mm, three packings each) extrapolated to r -> 0 (analysis/holes/budget.py), linear in r (the leading order of a
+# grain-scale error; five radii cannot fix the order: with it fitted the limit's interval spans tens of mm, kept
+# beside as limit_fitted_*), and each grain size judged against that limit: within 5 % of the field mean over the
+# limit's whole interval. The openings are left out: the
+# convergence runs kept no grains, so theirs are the former reading's (results/comparison/README.md).
+GRAIN_SIZE_METRICS = ("L2", "L2_surface", "h1")
+
+
+def grain_size(conv: pd.DataFrame) -> pd.DataFrame:
+    """One row per metric and grain radius: the mean over packings, the r -> 0 limit with its interval, the
+    mean's distance from the limit in % of the field mean, and whether the whole interval is within 5 %."""
+    from analysis.holes.budget import extrapolate, within_of_limit
+    rows = []
+    for m in GRAIN_SIZE_METRICS:
+        g = conv[conv.metric == m].sort_values("radius_mm")
+        se = g.sd / np.sqrt(g.packings)
+        lim = extrapolate(g.radius_mm, g["mean"], se, p=1.0, fit_order=False, n_boot=2000)
+        free = extrapolate(g.radius_mm, g["mean"], se, fit_order=True, n_boot=500)     # the order's sensitivity
+        field = float(g.field_mean.iloc[0])
+        for r in g.itertuples():
+            rows.append({"metric": m, "radius_mm": r.radius_mm, "mean": r.mean, "sd": r.sd, "packings": r.packings,
+                         "field_mean": field, "limit": lim["m0"], "limit_lo": lim["m0_lo"], "limit_hi": lim["m0_hi"],
+                         "from_limit_pct": 100 * (r.mean - lim["m0"]) / field,
+                         "within_5pct": within_of_limit(r.mean, lim, field), "fitted_order": free["order"],
+                         "limit_fitted_order": free["m0"], "limit_fitted_lo": free["m0_lo"],
+                         "limit_fitted_hi": free["m0_hi"]})
+    return pd.DataFrame(rows)
+
+
+def run_grain_size(out=None) -> int:
+    """results/validation/grain_size.csv and .png from results/bench/convergence.csv (no scene runs)."""
+    out = Path(out or ROOT / "results/validation")
+    source = ROOT / "results/bench/convergence.csv"
+    if not source.exists():
+        print("bench grain-size: no results/bench/convergence.csv; `./holes bench convergence` makes it",
+              file=sys.stderr)
+        return 1
+    t = grain_size(read_table(source))
+    note = stamp("./holes bench grain-size")
+    atomic_csv(t.round(3), out / "grain_size.csv", note + "; mm; the clay hole of bench convergence extrapolated "
+               "to r -> 0 (analysis/holes/budget.py)")
+    fig, axes = pyplot().subplots(1, len(GRAIN_SIZE_METRICS), figsize=(3.4 * len(GRAIN_SIZE_METRICS), 3.8))
+    for ax, m in zip(axes, GRAIN_SIZE_METRICS):
+        g = t[t.metric == m]
+        ax.errorbar(g.radius_mm, g["mean"], yerr=g.sd / np.sqrt(g.packings) * 2, fmt="o", capsize=3,
+                    label="mean, 95 % of the packings")
+        rr = np.linspace(0, g.radius_mm.max(), 50)
+        first = g.iloc[0]
+        ax.fill_between([0, 0.3], first.limit_lo, first.limit_hi, color="C3", alpha=0.3, label="r → 0, 95 %")
+        slope = np.polyfit(g.radius_mm, g["mean"], 1)[0]
+        ax.plot(rr, first.limit + slope * rr, "C3--", lw=0.8, label="linear in r")
+        ax.axhline(first.field_mean, color="k", ls=":", lw=1, label="field mean")
+        ax.set(xlabel="grain radius r, mm", ylabel=f"{m}, mm", xlim=(-0.2, g.radius_mm.max() + 0.5))
+    axes[0].legend(fontsize=6)
+    save(fig, out / "grain_size.png", f"the grain size's share: the clay hole extrapolated to r → 0\n{note}")
+    print(t.round(2).to_string(index=False))
+    return 0
+
+
 # Speed against error (`./holes bench speed-vs-error`): every preset of `bench presets` against the converged
 # reference, r = 3 mm grains (`bench convergence`). A preset's shift from it is the chain of two measured shifts:
 # the preset's from the reference preset on the same long strip and machine (presets.csv, per soil, 8 holes a side)
