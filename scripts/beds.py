@@ -39,7 +39,7 @@ from analysis.core.cli_types import folder, option, CommandLine
 from analysis.core.config import LATERAL, SEED, THREADS, check_lateral, load_resolution, Resolution
 from analysis.core.schema import ConfigError
 from analysis.core.soil_config import load_soil, parse_overrides, soil_with
-from analysis.core.bed_spec import (BED_DIR, bed_key, check_graded, check_size, check_tiles,  # noqa: E402
+from analysis.core.bed_spec import (BED_DIR, bed_key, check_grains_fit, check_graded, check_size, check_tiles,  # noqa: E402
                                mean_volume, zones)
 from analysis.core.io import atomic_write  # noqa: E402
 
@@ -122,6 +122,7 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
     key = bed_key(soil, res, size, SEED.check("bed.seed", seed), check_lateral(lateral),
                   check_tiles(tiles, lateral))
     check_graded(res, size, lateral)
+    check_grains_fit(res, size)
     out = Path(bed_dir) / f"{key}.npz"
     if out.exists() and out.with_suffix(".json").exists():
         check_cached(out, soil)

@@ -45,6 +45,28 @@ def zones(res, L: float, W: float, D: float) -> list:
     return [b for b in boxes if b[1][1] > b[0][1]]      # a fine zone across the whole width has no sides
 
 
+GRAINS_ACROSS = 4       # the fewest of the largest grains a bed must hold across its width and its depth
+
+
+def check_grains_fit(res, size):
+    """A bed holds at least GRAINS_ACROSS of its largest grains across its width and its depth (a grain as big as the
+    strip makes no soil).
+
+    >>> from types import SimpleNamespace as N
+    >>> check_grains_fit(N(name="big", radius=0.03, spread=0.25, coarse_radius=0.0), (2.0, 0.16, 0.14))
+    ... # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    analysis.core.schema.ConfigError: resolution 'big': grains up to 75 mm across in a bed 160 x 140 mm ...
+    """
+    largest = 2 * max(res.radius, getattr(res, "coarse_radius", 0.0) or 0.0) * (1 + res.spread)
+    smallest = min(size[1], size[2])
+    if largest * GRAINS_ACROSS > smallest:
+        raise ConfigError(f"resolution {res.name!r}: grains up to {1000 * largest:.0f} mm across in a bed "
+                          f"{1000 * size[1]:.0f} x {1000 * size[2]:.0f} mm (width x depth): allowed at most "
+                          f"{1000 * smallest / GRAINS_ACROSS:.0f} mm, {GRAINS_ACROSS} across each")
+
+
 def check_graded(res, size, lateral: str):
     """A graded bed's fine zone fits inside the bed, with room for a coarse grain beside and under it; walled only."""
     if not res.graded:

@@ -9,7 +9,7 @@ import hashlib
 import json
 import math
 
-from analysis.core.bed_spec import BED_DIR, check_graded
+from analysis.core.bed_spec import BED_DIR, check_grains_fit, check_graded
 from analysis.core.cli_types import folder, option, CommandLine
 from analysis.core.config import (AWAKE, SEED, SLIP, THREADS, check_awake, load_disk, load_machine,
                                   load_preset, load_resolution, load_sleeve, preset_with, tool_with)
@@ -157,6 +157,7 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
               "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}
     if weight is not None:                  # only then: the ids of runs without a weight stay as they were
         params["weight"] = weight
+    check_grains_fit(res, [x / 1000 for x in params["bed_size_mm"]])
     if res.graded:                          # likewise; measure.py reads the fine zone from here
         params["graded"] = {k: getattr(res, k) for k in ("radius", "spread", "coarse_radius", "fine_width",
                                                              "fine_depth")}
