@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.schema import ConfigError# noqa: E402
+from analysis.core.schema import ConfigError  # noqa: E402
 from scripts.beds import bed_arguments, bed_from_args, load_meta  # noqa: E402
 
 

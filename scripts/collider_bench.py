@@ -28,7 +28,7 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.cli_types import option, CommandLine# noqa: E402
+from analysis.core.cli_types import option, CommandLine  # noqa: E402
 from analysis.core.config import COLLIDER_STEPS, THREADS
 from analysis.core.schema import ROOT
 from analysis.core.io import atomic_csv, machine, read_table, stamp  # noqa: E402

@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.cli_types import folder
+from analysis.core.cli_types import folder, option
 from analysis.core.config import CONE_DEPTH, CONE_FIELDS
 from analysis.core.schema import ROOT, ConfigError
 from analysis.core.soil_config import SOIL_FIELDS, load_soil, parse_overrides, soil_with
@@ -175,22 +175,27 @@ def damage_map(first: set, now: set, pos, axis: tuple, surface: float, period: t
                          "bonds": g["size"], "broken": g["sum"]})
 
 
-def main(argv=None) -> int:
+def arguments():
+    """The cone's command line: the bed's options and the cone's, each number checked against its Field."""
     from scripts import beds as bed
     p = bed.bed_arguments(__doc__.splitlines()[0], "200,200,260", "holes cone")
-    p.add_argument("--cone-scale", type=float, default=3.0, help="cone size / ASABE S313 size, [0.5, 20] (default 3)")
-    p.add_argument("--cone-speed", type=float, default=0.3, help="the cone's penetration speed, m/s (default 0.3)")
-    p.add_argument("--cohesion", type=float, help="Pa; overrides the soil config's normal and shear cohesion")
-    p.add_argument("--depth", type=float, default=CI_DEPTH * 1000, help="deepest base depth, mm (field: 150)")
+    p.add_argument("--cone-scale", type=option("--cone-scale", CONE_FIELDS["cone_scale"]), default=3.0,
+                   help="cone size / ASABE S313 size, [0.5, 20] (default 3)")
+    p.add_argument("--cone-speed", type=option("--cone-speed", CONE_FIELDS["speed"]), default=0.3,
+                   help="the cone's penetration speed, m/s (default 0.3)")
+    p.add_argument("--cohesion", type=option("--cohesion", SOIL_FIELDS["normal_cohesion"]),
+                   help="Pa; overrides the soil config's normal and shear cohesion")
+    p.add_argument("--depth", type=option("--depth", CONE_DEPTH), default=CI_DEPTH * 1000,
+                   help="deepest base depth, mm (field: 150)")
     p.add_argument("--out", type=folder("--out"), help="where the resistance CSV goes (default results/cone)")
     p.add_argument("--damage", action="store_true", help="also map the bonds the cone broke (<stem>-damage.csv)")
-    a = p.parse_args(argv)
+    return p
+
+
+def main(argv=None) -> int:
+    from scripts import beds as bed
+    a = arguments().parse_args(argv)
     try:
-        for key, value in (("cone_scale", a.cone_scale), ("speed", a.cone_speed)):  # before the bed is settled
-            CONE_FIELDS[key].check(f"cone.{key}", value)
-        if a.cohesion is not None:
-            SOIL_FIELDS["normal_cohesion"].check("cone.cohesion", a.cohesion)
-        CONE_DEPTH.check("cone.depth", a.depth)
         summary = run(bed.bed_from_args(a), a.soil, a.cone_scale, a.cone_speed, a.cohesion, a.threads, a.depth / 1000,
                       out_dir=Path(a.out) if a.out else None, overrides=parse_overrides(a.set), damage=a.damage)
     except (ConfigError, ValueError) as e:

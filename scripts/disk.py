@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.schema import ROOT, ConfigError# noqa: E402
+from analysis.core.schema import ROOT, ConfigError  # noqa: E402
 from analysis.core.run_spec import arguments, plan_args  # noqa: E402
 
 

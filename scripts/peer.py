@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.config import load_disk# noqa: E402
+from analysis.core.config import load_disk  # noqa: E402
 from analysis.core.schema import ROOT
 from analysis.core.soil_config import load_soil
 from analysis.core.io import atomic_csv, machine  # noqa: E402

@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.core.cli_types import folder# noqa: E402
+from analysis.core.cli_types import folder, option  # noqa: E402
 from analysis.core.schema import ROOT, ConfigError, Field
 from analysis.core.soil_config import load_soil, parse_overrides, soil_with
 from analysis.core.io import atomic_write  # noqa: E402
@@ -124,16 +124,22 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
             "curve": [[round(1000 * a, 3), round(b / 1e3, 3), round(1000 * c, 3)] for a, b, c in d[::5]]}
 
 
-def main(argv=None) -> int:
+def arguments():
+    """The shear box's command line: the bed's options and the box's, each number checked against its Field."""
     from scripts import beds as bed
     p = bed.bed_arguments(__doc__.splitlines()[0], "150,150,100", "holes shear")
-    p.add_argument("--stress", default="50,100,200", help="normal stresses, kPa (one sample each)")
-    p.add_argument("--speed", type=float, default=0.05, help="shearing speed, m/s (default 0.05)")
+    p.add_argument("--stress", type=option("--stress", STRESS, many=True), default=[50.0, 100.0, 200.0],
+                   help="normal stresses, kPa (one sample each; default 50,100,200)")
+    p.add_argument("--speed", type=option("--speed", SPEED), default=0.05, help="shearing speed, m/s (default 0.05)")
     p.add_argument("--out", type=folder("--out"), help="where the result goes (default results/soils/shear)")
-    a = p.parse_args(argv)
+    return p
+
+
+def main(argv=None) -> int:
+    from scripts import beds as bed
+    a = arguments().parse_args(argv)
+    stresses = a.stress
     try:
-        stresses = [STRESS.check("shear.stress", float(s)) for s in a.stress.split(",")]
-        SPEED.check("shear.speed", a.speed)
         bed_path = bed.bed_from_args(a)
         rows = [run(bed_path, a.soil, s, a.speed, a.threads, parse_overrides(a.set)) for s in stresses]
     except (ConfigError, ValueError) as e:

@@ -7,7 +7,7 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from analysis.core.config import load_disk# noqa: E402
+from analysis.core.config import load_disk  # noqa: E402
 
 
 @pytest.fixture(scope="session")

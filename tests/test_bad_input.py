@@ -63,12 +63,21 @@ def typed_options(parser: argparse.ArgumentParser, prefix=()):
             yield prefix, action.option_strings[0], action.type.field
 
 
-OPTIONS = [*typed_options(cli.build_parser()), *typed_options(arguments(exit_on_error=False), ("run",))]
+def scene_parsers():
+    """The YADE scenes' own command lines (parsed before any scene starts)."""
+    from scripts import beds, cone, shear
+    return {("bed",): beds.bed_arguments("bed", "100,100,100"), ("cone",): cone.arguments(),
+            ("shear",): shear.arguments(), ("run",): arguments()}
+
+
+OPTIONS = [*typed_options(cli.build_parser()),
+           *(o for words, parser in scene_parsers().items() for o in typed_options(parser, words))]
 
 
 def test_every_field_typed_option_is_found():
     names = {(c, o) for c, o, _ in OPTIONS}
-    assert (("compare",), "--seeds") in names and (("run",), "--threads") in names and len(names) > 15
+    assert {(("compare",), "--seeds"), (("run",), "--threads"), (("cone",), "--cone-scale"), (("shear",), "--stress"),
+            (("bed",), "--threads")} <= names and len(names) > 20
 
 
 @pytest.mark.parametrize("command, option, field", OPTIONS, ids=lambda v: " ".join(v) if isinstance(v, tuple) else
@@ -77,8 +86,8 @@ def test_every_field_typed_option_refuses_every_value_outside_its_field(command,
     for bad in invalid_values(field):
         text = "x" if isinstance(bad, str) else (repr(bad) if not math.isfinite(bad) else f"{bad:g}")
         with pytest.raises(SystemExit) as e:
-            if command == ("run",):
-                arguments().parse_args(["--soil", "clay", f"{option}={text}"])
+            if command in scene_parsers():
+                scene_parsers()[command].parse_args(["--soil", "clay", f"{option}={text}"])
             else:
                 cli.main([*command, f"{option}={text}"])
         err = capsys.readouterr().err.strip()
