@@ -11,13 +11,14 @@ import math
 
 from analysis.core.bed_spec import BED_DIR, check_grains_fit, check_graded
 from analysis.core.cli_types import folder, option, CommandLine
-from analysis.core.config import (AWAKE, SEED, SLIP, THREADS, check_awake, load_disk, load_machine,
+from analysis.core.config import (AWAKE, PRESET_FIELDS, SEED, SLIP, THREADS, check_awake, load_disk, load_machine,
                                   load_preset, load_resolution, load_sleeve, preset_with, tool_with)
 from analysis.core.schema import as_dict, ConfigError, Field
 from analysis.core.soil_config import SOIL_DEFAULTS, load_soil, parse_overrides, soil_with
 from analysis.core.kinematics import TIP_SPHERE_RATIO, layout
 
 CHECKPOINT_EVERY = 600.0    # s of wall time between checkpoints of an unfinished run (0: none)
+CHECKPOINT_FIELD = Field(0.0, 86400.0, unit="s", meaning="wall time between checkpoints (0: none)")
 RUN_FIELDS = {"slip": SLIP,
               "speed_kmh": Field(0.1, 20.0, unit="km/h", meaning="forward speed"),
               "disk_inertia": Field(1e-4, 100.0, unit="kg·m²", meaning="disk moment of inertia (free mode)"),
@@ -206,8 +207,10 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--disk", default="configs/disk.toml", help="disk config (default configs/disk.toml)")
     p.add_argument("--slip", type=float, help="slip rate δ = 1 - r/R, [0, 0.9] (default: the disk config's, 0)")
     p.add_argument("--speed-kmh", type=float, help="the disk's forward speed, km/h (default: the disk config's)")
-    p.add_argument("--holes", type=int, help="holes to measure (default: the preset's)")
-    p.add_argument("--lead-in", type=int, help="holes formed first and not measured (default: the preset's)")
+    p.add_argument("--holes", type=option("--holes", PRESET_FIELDS["holes"]),
+                   help="holes to measure (default: the preset's)")
+    p.add_argument("--lead-in", type=option("--lead-in", PRESET_FIELDS["lead_in"]),
+                   help="holes formed first and not measured (default: the preset's)")
     p.add_argument("--width", type=float, help="mm, overrides the preset")
     p.add_argument("--depth", type=float, help="mm, overrides the preset")
     p.add_argument("--resolution", help="particle size (configs/resolutions.toml), overrides the preset")
@@ -230,7 +233,7 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--tilled", type=pair_arg("DEPTH,DENSITY", "100,0.85"), metavar="DEPTH,DENSITY",
                    help="the rotary tiller's loosened top layer (seed 001 §1.2): its depth in mm and its bulk density "
                    "over the bed's, made by taking that share of the layer's grains out at random (default: none)")
-    p.add_argument("--seed", type=int, default=1, help="the bed's packing seed, >= 0 (default 1)")
+    p.add_argument("--seed", type=option("--seed", SEED), default=1, help="the bed's packing seed, >= 0 (default 1)")
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
     p.add_argument("--vtk", action="store_true", help="also write VTK files for ParaView")
     p.add_argument("--out", type=folder("--out"), help="runs folder (default results/runs)")
@@ -240,7 +243,7 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
                    help="override a disk or sleeve field, e.g. disk.D=45, sleeve.stiffness=16")
     p.add_argument("--rerun", action="store_true", help="run again from the start, even if this run's folder "
                    "has a summary or a checkpoint")
-    p.add_argument("--checkpoint-every", type=float, default=CHECKPOINT_EVERY,
+    p.add_argument("--checkpoint-every", type=option("--checkpoint-every", CHECKPOINT_FIELD), default=CHECKPOINT_EVERY,
                    help="s of wall time between checkpoints of an unfinished run (0: none)")
     return p
 
