@@ -1,0 +1,58 @@
+"""Bayesian calibration of a soil's micro-parameters against its bench tests' targets, with GrainLearning's
+iterative Bayesian filter (PyPI `grainlearning`, made for YADE models of granular materials). No YADE here: the
+model is any function from a parameter vector to the bench responses (the cone index, c and φ of the shear box,
+...), and the targets are the soil's measured values, never a hole's.
+
+The targets are read by GrainLearning as one observable's sequence of "steps", one per response; its likelihood's
+covariance scales with each target's square, so every response weighs by its relative error; the posterior
+after the last step holds them all.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+HOLE_METRICS = {"L0", "L1", "L2", "L2_surface", "h1", "C", "pass_rate"}   # never a soil's target
+
+
+def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations: int = 4,
+              seed_ess: float = 0.3) -> dict:
+    """Fit `bounds`' parameters ({name: (lo, hi)}) so that model(params dict) -> {response: value} meets `targets`
+    ({response: value}). Returns the posterior's mean, its coefficient of variation and the most probable sample,
+    per parameter, and the ensemble of the last iteration (its parameters and weights)."""
+    from grainlearning import BayesianCalibration, DynamicSystem
+    names, responses = list(bounds), list(targets)
+    holes = sorted(set(responses) & HOLE_METRICS)
+    if holes:
+        raise ValueError(f"calibrate: target(s) {', '.join(holes)} are hole metrics: allowed only bench responses "
+                         "(a soil is calibrated on its own tests, never on the holes it is judged by)")
+    obs = np.array([[float(targets[r]) for r in responses]])
+    if np.any(obs == 0) or len(responses) < 2:
+        raise ValueError("calibrate: allowed two targets or more, none of them 0 (each scales its own error)")
+
+    def run(calib):
+        sims = []
+        for row in calib.system.param_data:
+            out = model(dict(zip(names, row)))
+            sims.append(np.array([[float(out[r]) for r in responses]]))
+        calib.system.set_sim_data(sims)
+
+    calib = BayesianCalibration.from_dict({
+        "num_iter": iterations, "callback": run, "save_fig": -1,
+        "system": {"system_type": DynamicSystem, "param_names": names,
+                   "param_min": [float(bounds[n][0]) for n in names], "param_max": [float(bounds[n][1]) for n in names],
+                   "num_samples": samples, "obs_data": obs, "obs_names": ["response"],
+                   "ctrl_data": np.arange(len(responses)), "inv_obs_weight": [1.0], "sim_name": "soil"},
+        "inference": {"Bayes_filter": {"ess_target": seed_ess}, "sampling": {"max_num_components": 2}},
+    })
+    import contextlib
+    import io
+    import warnings
+    with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():   # it prints every iteration
+        warnings.simplefilter("ignore")
+        calib.run()
+    mean = calib.system.estimated_params[-1]
+    cv = calib.system.estimated_params_cv[-1]
+    best = calib.get_most_prob_params()
+    return {"names": names, "mean": dict(zip(names, map(float, mean))), "cv": dict(zip(names, map(float, cv))),
+            "most_probable": dict(zip(names, map(float, best))), "samples": calib.system.param_data,
+            "weights": calib.inference.posterior}

@@ -1,0 +1,30 @@
+"""GrainLearning's calibration (analysis/soil/bayes.py) on a made-up smooth bench model: it recovers the made-up
+parameters, and it refuses a hole metric as a soil's target."""
+import pytest
+
+from analysis.soil.bayes import calibrate
+
+TRUE = {"bond_kpa": 40.0, "friction_deg": 30.0, "new_contact": 0.4}
+BOUNDS = {"bond_kpa": (10, 100), "friction_deg": (15, 45), "new_contact": (0, 1)}
+
+
+def bench(p):
+    """Cone index, c and φ of a shear box, an angle of repose: smooth in the three parameters, each response
+    leaning on a different mix of them."""
+    return {"cone_kpa": 8 * p["bond_kpa"] + 3 * p["friction_deg"] + 20 * p["new_contact"],
+            "c_kpa": 0.6 * p["bond_kpa"] + 10 * p["new_contact"],
+            "phi_deg": 0.8 * p["friction_deg"] + 5 * p["new_contact"],
+            "repose_deg": 0.5 * p["friction_deg"] + 40 * p["new_contact"]}
+
+
+def test_grainlearning_recovers_made_up_parameters_from_a_made_up_smooth_response():
+    r = calibrate(bench, bench(TRUE), BOUNDS, samples=30, iterations=3)
+    for name, value in TRUE.items():
+        assert r["mean"][name] == pytest.approx(value, rel=0.08), (name, r["mean"])
+        assert 0 < r["cv"][name] < 0.3
+    assert len(r["samples"]) == len(r["weights"])
+
+
+def test_a_hole_metric_is_never_a_soils_target():
+    with pytest.raises(ValueError, match="h1 are hole metrics"):
+        calibrate(bench, {"cone_kpa": 450.0, "h1": 13.5}, BOUNDS)
