@@ -4,13 +4,14 @@
 
 Parts: bed (scripts/beds.py; intact bonds on the settled contacts; a contact made later gets the soil's
 new_contact_cohesion of their strength, as in the tool scenes), box (the lower half fixed, the upper half's four
-walls pushed along +x at a constant speed, the shear plane at mid-height with a gap of one grain diameter between
-the frames, so no grain is pinched there), lid (a plate resting on the sample under a dead load σn·A, free to rise
-and sink, moving along with the upper half), recorder (the shear force the upper half takes against its
-displacement). One fresh sample per normal stress, as a shear box test is run; the peak shear stress over a
-displacement of SHEAR_STRAIN × the box's length, on the sheared area, is τ at that σn.
-Writes results/soils/shear/<bed key>-<stresses>.json (per σn: peak and residual τ, the lid's rise, the curve)
-with the Mohr-Coulomb fit (analysis/soil/shear.py), and prints the fit as a JSON line.
+thin walls pushed along +x at a constant speed, the shear plane at mid-height with a gap of one grain diameter
+between the frames, so no grain is pinched there; frames and lid smooth, so no wall friction wedges the sample),
+lid (a plate resting on the sample under a dead load σn·A, free to rise and sink, moving with the upper half),
+recorder (the shear force the upper half takes, and the shear and normal forces the grains pass across the shear
+plane through their contacts, against the shift, each over the sheared area). One fresh sample per normal stress,
+as a shear box test is run; the peak shear stress over a shift of SHEAR_STRAIN × the box's length is τ at that σn.
+Writes results/soils/shear/<bed key>-<stresses>.json (per σn: peak and residual τ, the plane's τ and σ, the lid's
+rise, the curve) with the Mohr-Coulomb fit (analysis/soil/shear.py), and prints the fit as a JSON line.
 """
 from __future__ import annotations
 
@@ -55,9 +56,10 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     r = float(np.mean(data["radius"]))
     top = float(np.max(data["pos"][:, 2] + data["radius"]))
     mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=True))
-    steel = O.materials.append(part.steel_material(soil))
+    steel = O.materials.append(part.steel_material(soil, friction_deg=0.0))     # smooth: no wall friction wedges
     grains = list(O.bodies.append([utils.sphere(tuple(p), rr, material=mat)
                                    for p, rr in zip(data["pos"], data["radius"])]))
+    n_grains = len(grains)
     plane, gap, t, height = D / 2, 2 * r, FRAME_T, top + 0.1
     lower = part.container(L, W, plane - gap / 2, steel, t=t)       # floor and walls up to the shear plane
     upper = [utils.box(c, e, fixed=True, material=steel) for c, e in (
@@ -104,24 +106,48 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     while O.iter < n_consolidate + n_shear:
         O.run(chunk, True)
         fx = -sum(O.forces.f(i)[0] for i in upper_ids) - O.forces.f(lid_id)[0]    # the push the soil resists
+        f_plane, n_plane = across_plane(O, n_grains, plane)
         if not math.isfinite(fx):
             raise RuntimeError(f"shear: the force is {fx} at t = {O.time:.4f} s (numerical blow-up)")
         shift = push["x"]
-        rows.append((shift, fx / ((L - shift) * W), O.bodies[lid_id].state.pos[2] - z_lid0))
+        area = (L - shift) * W
+        rows.append((shift, fx / area, O.bodies[lid_id].state.pos[2] - z_lid0, f_plane / area, n_plane / area))
         if (O.iter - n_consolidate) % report < chunk:
             log(f"shear σn {stress_kpa:g} kPa: {100 * shift / travel:3.0f} %  τ {rows[-1][1] / 1e3:6.1f} kPa  "
+                f"at the plane {abs(rows[-1][3]) / 1e3:6.1f} kPa under σ {abs(rows[-1][4]) / 1e3:6.1f} kPa  "
                 f"lid {1000 * rows[-1][2]:+.1f} mm  wall {time.time() - wall0:.0f} s")
         vmax = max(O.bodies[i].state.vel.norm() for i in grains[::7])
         if vmax > 100 * speed + 1.0:
             raise RuntimeError(f"shear: a grain moves at {vmax:.2f} m/s (unstable)")
     d = np.array(rows)
+    d[:, 3:5] = np.abs(d[:, 3:5])          # the contacts' sums, whichever body YADE books them on
     tail = d[int(0.8 * len(d)):]
     return {"bed": meta["key"], "soil": soil.name, "radius_m": r, "size_m": [L, W, D], "stress_kpa": stress_kpa,
             "tau_peak_kpa": float(d[:, 1].max() / 1e3), "tau_residual_kpa": float(tail[:, 1].mean() / 1e3),
+            "tau_plane_peak_kpa": float(d[:, 3].max() / 1e3), "tau_plane_residual_kpa": float(tail[:, 3].mean() / 1e3),
+            "sigma_plane_mean_kpa": float(d[:, 4].mean() / 1e3),
+            "friction_plane_peak": float((d[:, 3] / np.maximum(d[:, 4], 1e-9)).max()),
             "shift_at_peak_mm": float(1000 * d[int(np.argmax(d[:, 1])), 0]),
             "lid_rise_mm": float(1000 * d[-1, 2]), "particles": len(grains), "steps": int(O.iter), "dt": O.dt,
             "wall_s": time.time() - wall0, "threads": threads,
-            "curve": [[round(1000 * a, 3), round(b / 1e3, 3), round(1000 * c, 3)] for a, b, c in d[::5]]}
+            "curve": [[round(1000 * a, 3), round(b / 1e3, 3), round(1000 * c, 3), round(e / 1e3, 3), round(s / 1e3, 3)]
+                      for a, b, c, e, s in d[::5]]}
+
+
+def across_plane(O, n_grains: int, plane: float) -> float:
+    """The x- and z-forces the grains below the shear plane pass to those above it through their contacts (N):
+    what the sample itself carries at the plane, shear and normal."""
+    total = normal = 0.0
+    for i in O.interactions:
+        if not i.isReal or i.id1 >= n_grains or i.id2 >= n_grains:
+            continue
+        z1, z2 = O.bodies[i.id1].state.pos[2], O.bodies[i.id2].state.pos[2]
+        if (z1 - plane) * (z2 - plane) < 0:
+            f = i.phys.normalForce + i.phys.shearForce
+            sign = 1.0 if z2 > plane else -1.0     # booked on the upper body of the pair
+            total += sign * f[0]
+            normal += sign * f[2]
+    return total, normal
 
 
 def arguments():

@@ -29,9 +29,10 @@ def soil_material(soil, density: float, young: float | None = None, cohesive: bo
                        label="soil")
 
 
-def steel_material(soil):
-    """Tools and container walls: frictional, never bonded, no rolling moment."""
-    return CohFrictMat(young=soil.young, poisson=soil.poisson, frictionAngle=math.radians(STEEL_SOIL_FRICTION_DEG),
+def steel_material(soil, friction_deg: float = STEEL_SOIL_FRICTION_DEG):
+    """Tools and container walls: frictional (`friction_deg`; 0 for a bench test's smooth frame), never bonded,
+    no rolling moment."""
+    return CohFrictMat(young=soil.young, poisson=soil.poisson, frictionAngle=math.radians(friction_deg),
                        density=7850.0, isCohesive=False, momentRotationLaw=False, label="steel")
 
 
