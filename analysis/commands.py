@@ -204,8 +204,7 @@ def cmd_bench(args) -> int:
     analysis/batch/bench.py; `bench peer`: scripts/peer.py (LIGGGHTS
     beside YADE); `bench collider`, `bench profile`: scripts/collider_bench.py (contact detection settings, or
     the adopted one's time per part, from a run's checkpoint)."""
-    import pandas as pd
-    from analysis.core.io import atomic_csv, machine, stamp
+    from analysis.core.io import machine
     if args.what == "peer":
         return run_scene("peer.py", [])
     if args.what in ("collider", "profile"):
@@ -244,14 +243,7 @@ def cmd_bench(args) -> int:
                 continue
             bed = Path(args.bed_dir or ROOT / "results/beds") / f"{m['bed']}.json"
             rows.append({**run_cost(m, json.loads(bed.read_text()) if bed.exists() else None), "machine": machine()})
-        if not rows:
-            print("bench: no finished runs in results/runs; make one with ./holes run", file=sys.stderr)
-            return 1
-        out, here = ROOT / "results/bench/runs.csv", pd.DataFrame(rows)
-        atomic_csv(with_earlier(here, out, "run"), out, stamp("./holes bench runs") + "; rows of runs not on this "
-                   "machine kept from before")
-        print(here.to_string(index=False))
-        return 0
+        return write_costs(rows, "run", "no finished runs in results/runs; make one with ./holes run")
     rows = []
     for meta_path in sorted((ROOT / "results/beds").glob("*.json")):
         m = json.loads(meta_path.read_text())
@@ -260,12 +252,19 @@ def cmd_bench(args) -> int:
                      "steps": m["steps"], "wall_s": round(m["wall_s"], 1), "threads": m["threads"],
                      "particle_steps_per_s": round(m["particle_steps"] / m["wall_s"]),
                      "porosity": round(m["porosity"], 4), "machine": machine()})
+    return write_costs(rows, "bed", "no beds in results/beds; build one with ./holes bed")
+
+
+def write_costs(rows: list[dict], key: str, none: str) -> int:
+    """results/bench/<key>s.csv: this machine's rows, and those of runs or beds not here kept from before."""
+    import pandas as pd
+    from analysis.core.io import atomic_csv, stamp
     if not rows:
-        print("bench: no beds in results/beds; build one with ./holes bed", file=sys.stderr)
+        print(f"bench: {none}", file=sys.stderr)
         return 1
-    out, here = ROOT / "results/bench/beds.csv", pd.DataFrame(rows)
-    atomic_csv(with_earlier(here, out, "bed"), out, stamp("./holes bench beds") + "; rows of beds not on this machine "
-               "kept from before")
+    out, here = ROOT / f"results/bench/{key}s.csv", pd.DataFrame(rows)
+    atomic_csv(with_earlier(here, out, key), out, stamp(f"./holes bench {key}s") + f"; rows of {key}s not on this "
+               "machine kept from before")
     print(here.to_string(index=False))
     return 0
 
