@@ -174,8 +174,8 @@ def main(argv=None) -> int:
     except RuntimeError as e:
         print(f"shear stopped: {e}", file=sys.stderr)
         return 3
-    from analysis.soil.shear import mohr_coulomb
-    fit = mohr_coulomb([r["stress_kpa"] for r in rows], [r["tau_peak_kpa"] for r in rows])
+    from analysis.soil.shear import fit_tests
+    fit = fit_tests(rows)
     out = Path(a.out) if a.out else ROOT / "results/soils/shear"
     name = f"{rows[0]['bed']}-{'_'.join(f'{s:g}' for s in stresses)}"
     summary = {"bed": rows[0]["bed"], "soil": rows[0]["soil"], "radius_mm": 1000 * rows[0]["radius_m"],

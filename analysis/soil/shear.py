@@ -10,6 +10,26 @@ import math
 import numpy as np
 
 
+def sheared_stress(test: dict) -> float:
+    """The normal stress on the sheared area at a test's peak (kPa): the load over what is left of the plane
+    once the halves have shifted, σn·L / (L − shift at the peak)."""
+    length_mm = 1000 * test["size_m"][0]
+    return test["stress_kpa"] * length_mm / (length_mm - test["shift_at_peak_mm"])
+
+
+def fit_tests(tests: list[dict]) -> dict:
+    """The Mohr-Coulomb fit of a shear box's tests: each peak shear stress against the normal stress on the
+    sheared area at that peak (both over the same area).
+
+    >>> t = [{"size_m": [0.15], "stress_kpa": s, "shift_at_peak_mm": 30.0, "tau_peak_kpa": 20 + 0.6 * s * 1.25}
+    ...      for s in (50, 100, 200)]
+    >>> r = fit_tests(t)
+    >>> round(r["c_kpa"], 2), round(r["phi_deg"], 2)
+    (20.0, 30.96)
+    """
+    return mohr_coulomb([sheared_stress(t) for t in tests], [t["tau_peak_kpa"] for t in tests])
+
+
 def mohr_coulomb(stress_kpa, tau_kpa) -> dict:
     """c (kPa) and φ (degrees) with their 95 % intervals from peak shear stresses at normal stresses.
 
