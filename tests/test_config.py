@@ -91,7 +91,7 @@ def test_a_negative_packing_seed_is_refused_by_bed_and_run():
     from scripts import beds as bed
     with pytest.raises(ConfigError, match=r"bed\.seed = -1 is out of range: allowed \[0, 2147483647\]"):
         bed.build("clay", "tiny", (100.0, 100.0, 60.0), seed=-1)
-    with pytest.raises(ConfigError, match=r"run\.seed = -1 is out of range"):
+    with pytest.raises(ConfigError, match=r"--seed = -1 is out of range: allowed \[0, 2147483647\]"):
         run_spec.plan_from_argv(["--soil", "clay", "--preset", "test", "--seed", "-1"])
     assert run_spec.plan_from_argv(["--soil", "clay", "--preset", "test", "--seed", "0"])["seed"] == 0
 

@@ -142,7 +142,7 @@ def test_the_basin_hole_reads_the_same_opening_when_the_grid_step_halves(r):
         assert abs(getattr(coarse, m) - getattr(fine, m)) <= band[m] / 4, m
 
 
-@pytest.mark.parametrize("r", RADII)
+@pytest.mark.parametrize("r", [5.0, 6.0, 8.0])        # r = 4 mm's 300 mm periodic beds cost the fast tier most
 def test_one_probe_radius_of_level_moves_the_opening_by_less_than_its_band(r):
     """Reading one probe radius deeper than the rule (5 mm under the subsided level) moves L0 and L1 of the
     straight-walled carved holes by no more than their one-hole band."""
