@@ -15,10 +15,11 @@ HOLE_METRICS = {"L0", "L1", "L2", "L2_surface", "h1", "C", "pass_rate"}   # neve
 
 
 def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations: int = 4,
-              seed_ess: float = 0.3) -> dict:
+              seed_ess: float = 0.3, seed: int = 0) -> dict:
     """Fit `bounds`' parameters ({name: (lo, hi)}) so that model(params dict) -> {response: value} meets `targets`
     ({response: value}). Returns the posterior's mean, its coefficient of variation and the most probable sample,
-    per parameter, and the ensemble of the last iteration (its parameters and weights)."""
+    per parameter, and the ensemble of the last iteration (its parameters and weights). `seed`: the resampling's
+    random state (the first samples are an unscrambled Halton sequence), so a calibration repeats itself."""
     from grainlearning import BayesianCalibration, DynamicSystem
     names, responses = list(bounds), list(targets)
     holes = sorted(set(responses) & HOLE_METRICS)
@@ -42,7 +43,7 @@ def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations:
                    "param_min": [float(bounds[n][0]) for n in names], "param_max": [float(bounds[n][1]) for n in names],
                    "num_samples": samples, "obs_data": obs, "obs_names": ["response"],
                    "ctrl_data": np.arange(len(responses)), "inv_obs_weight": [1.0], "sim_name": "soil"},
-        "inference": {"Bayes_filter": {"ess_target": seed_ess}, "sampling": {"max_num_components": 2}},
+        "inference": {"Bayes_filter": {"ess_target": seed_ess}, "sampling": {"max_num_components": 2, "random_state": seed}},
     })
     import contextlib
     import io
