@@ -21,7 +21,8 @@ from pathlib import Path
 import pandas as pd
 
 from analysis.holes import compare, compare_report, measure, rings
-from analysis.core.runner import finished, plan_case, run_all, say, scene_args
+from analysis.core.io import say
+from analysis.core.runner import finished, plan_case, run_all, scene_args
 from analysis.core.config import load_criteria, load_preset
 from analysis.core.schema import ROOT, ConfigError
 from analysis.batch.machine import TARGET_METRICS, load_of
@@ -80,14 +81,15 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = N
             table, measured = measure.measure_and_write(kept / c["id"], pictures=False)
             tables.append(table)
             levels.append(rings.level_table(measured))
-        elif c["id"] in elsewhere and not measure.current(measure.kept_holes(kept / c["id"])):
-            say(f"compare: {c['id']} was measured with a former metrology and its grains were not kept; left out")
-            missing.append(f"{f['soil']} seed {f['seed']} ({c['id']}: measured with a former metrology, no grains "
-                           "kept to measure again)")
-            continue
         elif c["id"] in elsewhere:
+            held = measure.kept_holes(kept / c["id"])
+            if not measure.current(held):
+                say(f"compare: {c['id']} was measured with a former metrology and its grains were not kept; left out")
+                missing.append(f"{f['soil']} seed {f['seed']} ({c['id']}: measured with a former metrology, no "
+                               "grains kept to measure again)")
+                continue
             say(f"compare: {c['id']} is not on this machine; its holes as measured earlier ({kept / c['id']})")
-            tables.append(measure.kept_holes(kept / c["id"]))
+            tables.append(held)
         else:
             missing.append(f"{f['soil']} seed {f['seed']} ({c['id']})")
             continue
@@ -106,21 +108,10 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = N
     write(out, preset, holes, table, field, pd.DataFrame(summaries), criteria, runs_dir, local, seeds, command,
           missing)
     if levels:
-        write_levels(out / "comparison" / "levels" / preset, pd.concat(levels, ignore_index=True), command)
+        rings.write_levels(out / "comparison" / "levels" / preset, pd.concat(levels, ignore_index=True), command)
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures else 0
-
-
-def write_levels(folder: Path, levels: pd.DataFrame, command: str):
-    """How much the openings hang on the level they are read at (rings.level_table), per preset: levels.csv,
-    levels_summary.csv and one picture per soil."""
-    folder.mkdir(parents=True, exist_ok=True)
-    note = stamp(command)
-    atomic_csv(levels.round(2), folder / "levels.csv", note + "; mm; the caliper `below` mm under the subsided level")
-    atomic_csv(rings.level_summary(levels).round(3), folder / "levels_summary.csv",
-               note + "; mm per soil and level; *_per_mm: the move per mm of level (least squares)")
-    rings.plot_levels(levels, folder, command)
 
 
 def keep(folder: Path, to: Path):

@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.core.runner import finished, run_all, say
+from analysis.core.io import say
+from analysis.core.runner import finished, run_all
 from analysis.core.config import MACHINE
 from analysis.core.schema import ROOT, ConfigError
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp

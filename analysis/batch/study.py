@@ -22,7 +22,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.core.runner import finished, plan_case, run_all, say, scene_args
+from analysis.core.io import say
+from analysis.core.runner import finished, plan_case, run_all, scene_args
 from analysis.holes.compare import RESIDUAL_LIMIT, VALIDATED, residual_pct, shift
 from analysis.core.config import load_criteria, load_preset
 from analysis.core.schema import ROOT, read_toml, ConfigError

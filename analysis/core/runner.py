@@ -16,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
 from analysis.core.schema import ROOT, ConfigError
-from analysis.core.io import say  # noqa: F401  (the batch's progress lines; imported from here by its callers)
+from analysis.core.io import say
 
 # A case's fields, named as in the seed and the configs, and the scripts/disk.py options that set them.
 PLAIN = {"soil": "--soil", "preset": "--preset", "seed": "--seed", "slip": "--slip", "speed_kmh": "--speed-kmh",

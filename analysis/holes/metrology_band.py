@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from analysis.core.config import load_seedling
 from analysis.core.schema import ROOT
 from analysis.core.io import atomic_csv, say, stamp
 from analysis.holes import carved
@@ -29,16 +30,18 @@ from analysis.holes.metrology import caliper_reading, measure_state
 RADII = (4.0, 5.0, 6.0, 8.0)           # mm: the grain radii of the presets' beds (configs/resolutions.toml)
 REALISATIONS = 2                        # places carved in each soil's bed
 WINDOW = 320.0                          # mm of bed round each carved hole
-DIAMETER_MIN = 2 ** 0.5 * 25.0          # √2·a2 (configs/seedling.toml)
 OUT = ROOT / "results/comparison/metrology"
 
 
 def beds(radius: float, bed_dir: Path = ROOT / "results/beds") -> list[Path]:
-    """The committed uniform beds of grain radius `radius` (mm), one per soil (graded beds left out)."""
+    """The uniform strip beds of grain radius `radius` (mm), one per soil: graded beds left out, and beds too
+    short for two places of WINDOW (a bench test's box settled in the same folder is not a strip)."""
     found = {}
     for meta in sorted(bed_dir.glob("*.json")):
         m = json.loads(meta.read_text())
-        if abs(1000 * m["radius"] - radius) < 1e-6 and "coarse_radius" not in m and m["soil"] not in found:
+        long_enough = 1000 * m["size_m"][0] >= 2 * WINDOW + 100
+        if (abs(1000 * m["radius"] - radius) < 1e-6 and "coarse_radius" not in m and long_enough
+                and m["soil"] not in found):
             found[m["soil"]] = meta.with_suffix(".npz")
     return list(found.values())
 
@@ -61,18 +64,16 @@ def measure_carved(radius: float, realisations: int = REALISATIONS, soils: int |
     so many soils' beds; `candidates`: (jaw, level) pairs to read with (default: every JAWS at every level)."""
     candidates = candidates or [(jaw, below) for jaw in JAWS for below in sorted({*LEVEL_CANDIDATES, *LEVELS})]
     rows = []
-    truths = {(s, b): carved.truth(s, b) for s in carved.SHAPES for b in (*LEVEL_CANDIDATES, *LEVELS)}
+    diameter_min = load_seedling().l2_diameter            # √2·a2
+    truths = {(s, b): carved.truth(s, b, diameter_min) for s in carved.SHAPES for b in (*LEVEL_CANDIDATES, *LEVELS)}
     for bed in beds(radius)[:soils]:
         for k, (pos0, rad0, width) in enumerate(places(bed, realisations)):
             xc, yc = WINDOW / 2, width / 2
-            z_ref = None
-            for shape in carved.SHAPES:
+            _, z_ref, _ = measure_state(pos0, rad0, pos0, rad0, width, [xc], carved.D, 80.0, diameter_min)
+            for shape in carved.SHAPES:           # carved below the bed's undisturbed level as the metrology reads it
                 for carving in carved.CARVINGS:
-                    if z_ref is None:           # the bed's undisturbed level, as the metrology reads it
-                        _, z_ref, _ = measure_state(pos0, rad0, pos0, rad0, width, [xc], carved.D, 80.0,
-                                                    DIAMETER_MIN)
                     pos, rad = carved.carve(pos0, rad0, shape, carving, xc, yc, z_ref)
-                    (hole,), _, _ = measure_state(pos, rad, pos0, rad0, width, [xc], carved.D, 80.0, DIAMETER_MIN)
+                    (hole,), _, _ = measure_state(pos, rad, pos0, rad0, width, [xc], carved.D, 80.0, diameter_min)
                     base = {"radius": radius, "bed": bed.stem.split("-")[0], "place": k, "shape": shape,
                             "carving": carving}
                     t = truths[(shape, 0.0)]

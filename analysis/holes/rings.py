@@ -116,21 +116,28 @@ def plot_levels(levels: pd.DataFrame, out: Path, command: str) -> list[Path]:
     return paths
 
 
-def run(folders, out: Path, command: str | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+def write_levels(folder: Path, levels: pd.DataFrame, command: str):
+    """How much the openings hang on the level they are read at (level_table): levels.csv, levels_summary.csv and
+    one picture per soil, in `folder`."""
+    folder.mkdir(parents=True, exist_ok=True)
+    atomic_csv(levels.round(2), folder / "levels.csv", stamp(command) + f"; mm; the caliper ({JAW.name}) `below` mm "
+               "under the subsided level; ahead/behind: L0's parts either side of the hole's axis")
+    atomic_csv(level_summary(levels).round(3), folder / "levels_summary.csv",
+               stamp(command) + "; mm per soil and level; *_per_mm: the move per mm of level (least squares)")
+    plot_levels(levels, folder, command)
+
+
+def run(folders, out: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
     """rings.csv, rings.png, levels.csv, levels_summary.csv and levels-<soil>.png in `out`: every hole of the
     given finished runs."""
     measured = [measure_run(f) for f in folders]
     table = pd.concat([profiles(m) for m in measured], ignore_index=True).round(2)
     levels = pd.concat([level_table(m) for m in measured], ignore_index=True)
     out.mkdir(parents=True, exist_ok=True)
-    command = command or "./holes rings " + " ".join(Path(f).name for f in folders)
+    command = "./holes rings " + " ".join(Path(f).name for f in folders)
     atomic_csv(table, out / "rings.csv", stamp(command) + "; mm below the undisturbed surface, r from the hole's axis")
-    atomic_csv(levels.round(2), out / "levels.csv", stamp(command) + f"; mm; the caliper ({JAW.name}) `below` mm "
-               "under the subsided level; ahead/behind: L0's parts either side of the hole's axis")
-    atomic_csv(level_summary(levels).round(3), out / "levels_summary.csv",
-               stamp(command) + "; mm per soil and level; *_per_mm: the move per mm of level (least squares)")
     plot(table, out / "rings.png", command)
-    plot_levels(levels, out, command)
+    write_levels(out, levels, command)
     return table, levels
 
 

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.core.runner import run_process, say
+from analysis.core.io import say
+from analysis.core.runner import run_process
 from analysis.core.schema import ROOT, ConfigError
 from analysis.core.soil_config import load_soil
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp

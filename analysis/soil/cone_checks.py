@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.core.runner import say
+from analysis.core.io import say
 from analysis.soil.calibrate import cone_index, cone_run, same_cohesion, stored_cone
 from analysis.soil.calibration_report import CAL, core_density
 from analysis.core.config import SEED, check_lateral, load_resolution
