@@ -80,6 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
     scene("bed", "bed.py", "settle and level a soil bed (cached by soil, resolution, size, seed)")
     scene("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)")
     scene("shear", "shear.py", "a direct shear box on a settled bed: peak shear stress at each normal stress, c and φ")
+    scene("collapse", "collapse.py", "a column of disturbed soil let slump: the slope it stands at")
     p = sub.add_parser("calibrate", help="fit a soil's cohesion to the Table 2 cone index (within 5 %%)")
     p.add_argument("--soil", required=True)
     p.add_argument("--resolution", default="coarse", help="the beds' grains (default: r = 8 mm, as calibrated)")
@@ -96,6 +97,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--threads", type=option("--threads", THREADS), default=1, help="threads per scene")
     p.add_argument("--cohesion-range", type=cohesion_range, default=(0.0, 200000.0),
                    help="lo,hi in Pa (default 0,200000)")
+    p.add_argument("--bench", action="store_true",
+                   help="calibrate bond, friction and new-contact cohesion on the shear box and the collapse test with "
+                        "GrainLearning (configs/bench_calibration.toml, configs/field/soil_targets.csv) instead")
     p.set_defaults(func=cmd_calibrate)
     p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "
                        "cone-to-particle ratio, core density (results/calibration/cone_checks.csv, .png)")
@@ -199,7 +203,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = build_parser()
     args, rest = parser.parse_known_args(argv)
-    if rest and args.command not in ("bed", "cone", "shear", "run", "duckbeak"):
+    if rest and args.command not in ("bed", "cone", "shear", "collapse", "run", "duckbeak"):
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
     args.rest = rest
     try:

@@ -45,6 +45,8 @@ def cmd_params(args) -> int:
 
 
 def cmd_calibrate(args) -> int:
+    if args.bench:
+        return cmd_calibrate_bench(args)
     from analysis.soil import calibrate
     from analysis.core.bed_spec import check_size
     from analysis.core.config import check_lateral, load_resolution
@@ -121,6 +123,28 @@ def cmd_compare(args) -> int:
     except ConfigError as e:
         print(f"compare: {e}", file=sys.stderr)
         return 2
+
+
+def cmd_calibrate_bench(args) -> int:
+    """`calibrate --bench`: the soil's three contact parameters on its bench tests (GrainLearning), then the
+    posterior's bench responses on the check packings."""
+    from analysis.soil import bench_calibration as bench
+    from analysis.core.soil_config import load_soil
+    from analysis.core.config import load_resolution
+    try:
+        cfg = bench.load_config()
+        load_soil(args.soil), bench.load_targets(args.soil), load_resolution(cfg["resolution"])
+    except ConfigError as e:
+        print(f"calibrate: {e}", file=sys.stderr)
+        return 2
+    try:
+        post = bench.calibrate(args.soil, cfg)
+        check = bench.check(args.soil, post, cfg)
+    except RuntimeError as e:
+        print(f"calibrate {args.soil}: {e}", file=sys.stderr)
+        return 1
+    print(json.dumps({"posterior": post["mean"], "interval": post["interval"], "check": check}))
+    return 0
 
 
 def cmd_calibrate_machine(args) -> int:

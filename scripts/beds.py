@@ -267,6 +267,13 @@ def bed_arguments(description: str, default_size: str, prog: str = "holes bed") 
     return p
 
 
+def add_test_set(p: argparse.ArgumentParser):
+    """A bench test's overrides of the soil's contact parameters that leave its bed as configured: the packing is
+    prepared one way for every test of a calibration, and only the tested contact law varies."""
+    p.add_argument("--test-set", action="append", metavar="KEY=VALUE",
+                   help="override a soil contact parameter in the test only (the bed settles as configured)")
+
+
 def bed_from_args(a) -> Path:
     return build(a.soil, a.resolution, [float(s) for s in a.size.split(",")], a.seed, a.threads, bed_dir=Path(a.bed_dir),
                  overrides=parse_overrides(a.set), lateral=a.lateral, tiles=a.tiles)

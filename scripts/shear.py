@@ -33,6 +33,8 @@ SHEAR_STRAIN = 0.2             # the upper half is pushed this fraction of the b
 CONSOLIDATE_S = 0.05           # s under the lid's load before shearing
 LID_T = 0.01                   # m: the lid's half-thickness
 FRAME_T = 0.002                # m: the frames' half-thickness (a thin edge at the shear plane)
+MAX_ESCAPED = 0.01             # the share of the grains that may leave through the gap before the box is a leak
+CHUNK = 50                     # steps between two records of the curve (0.09 mm of shift at 0.05 m/s, r = 6 mm)
 
 
 def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, threads: int = 1,
@@ -47,7 +49,7 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     from scripts.yadeboot import boot
     boot(threads)
     import numpy as np
-    from yade import O, PyRunner, utils
+    from yade import O, utils
     from scripts import soil as part
 
     wall0 = time.time()
@@ -76,21 +78,8 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     load = stress_kpa * 1e3 * area
     O.forces.setPermF(lid_id, (0, 0, -load))
     rows = []
-    push = {"v": 0.0, "x": 0.0}
-
-    def hook():
-        dt = O.dt
-        push["x"] += push["v"] * dt
-        for i in upper_ids:
-            O.bodies[i].state.vel = (push["v"], 0, 0)
-        O.bodies[lid_id].state.vel = (push["v"], 0, O.bodies[lid_id].state.vel[2])
-
-    O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True,
-                             extra=[PyRunner(command="shear_hook()", iterPeriod=1)])
-    import builtins
-    builtins.shear_hook = hook
-    for i in upper_ids:                                  # moved by velocity, not by the integrator's forces
-        O.bodies[i].state.blockedDOFs = "xyzXYZ"
+    O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True)
+    for i in upper_ids:                                  # moved by their velocity, set once, not by forces
         O.bodies[i].dynamic = False
     O.dt = 0.5 * utils.PWaveTimeStep()
     n_consolidate = int(CONSOLIDATE_S / O.dt)
@@ -100,23 +89,30 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     z_lid0 = O.bodies[lid_id].state.pos[2]
     travel = SHEAR_STRAIN * L
     n_shear = int(travel / speed / O.dt) + 1
-    push["v"] = speed
+    for i in upper_ids:
+        O.bodies[i].state.vel = (speed, 0, 0)
+    O.bodies[lid_id].state.vel = (speed, 0, 0)          # x is blocked: the lid keeps this speed along x
+    t_shear = O.time
     report = max(1, n_shear // 10)
-    chunk = 20
+    chunk = CHUNK
+    escaped = 0
     while O.iter < n_consolidate + n_shear:
         O.run(chunk, True)
         fx = -sum(O.forces.f(i)[0] for i in upper_ids) - O.forces.f(lid_id)[0]    # the push the soil resists
         f_plane, n_plane = across_plane(O, n_grains, plane)
         if not math.isfinite(fx):
             raise RuntimeError(f"shear: the force is {fx} at t = {O.time:.4f} s (numerical blow-up)")
-        shift = push["x"]
+        shift = speed * (O.time - t_shear)
         area = (L - shift) * W
         rows.append((shift, fx / area, O.bodies[lid_id].state.pos[2] - z_lid0, f_plane / area, n_plane / area))
         if (O.iter - n_consolidate) % report < chunk:
             log(f"shear σn {stress_kpa:g} kPa: {100 * shift / travel:3.0f} %  τ {rows[-1][1] / 1e3:6.1f} kPa  "
                 f"at the plane {abs(rows[-1][3]) / 1e3:6.1f} kPa under σ {abs(rows[-1][4]) / 1e3:6.1f} kPa  "
                 f"lid {1000 * rows[-1][2]:+.1f} mm  wall {time.time() - wall0:.0f} s")
-        vmax = max(O.bodies[i].state.vel.norm() for i in grains[::7])
+        escaped += remove_escaped(O, grains, L + push_room(speed, O.time - t_shear), W, 2 * r)
+        if escaped > MAX_ESCAPED * n_grains:
+            raise RuntimeError(f"shear: {escaped} grains left the box through the frames' gap (the box leaks)")
+        vmax = max(O.bodies[i].state.vel.norm() for i in grains[::7] if O.bodies[i])
         if vmax > 100 * speed + 1.0:
             raise RuntimeError(f"shear: a grain moves at {vmax:.2f} m/s (unstable)")
     d = np.array(rows)
@@ -128,10 +124,32 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
             "sigma_plane_mean_kpa": float(d[:, 4].mean() / 1e3),
             "friction_plane_peak": float((d[:, 3] / np.maximum(d[:, 4], 1e-9)).max()),
             "shift_at_peak_mm": float(1000 * d[int(np.argmax(d[:, 1])), 0]),
-            "lid_rise_mm": float(1000 * d[-1, 2]), "particles": len(grains), "steps": int(O.iter), "dt": O.dt,
+            "lid_rise_mm": float(1000 * d[-1, 2]), "particles": len(grains), "escaped": escaped, "steps": int(O.iter), "dt": O.dt,
             "wall_s": time.time() - wall0, "threads": threads,
             "curve": [[round(1000 * a, 3), round(b / 1e3, 3), round(1000 * c, 3), round(e / 1e3, 3), round(s / 1e3, 3)]
-                      for a, b, c, e, s in d[::5]]}
+                      for a, b, c, e, s in d[::2]]}
+
+
+def push_room(speed: float, t: float) -> float:
+    """How far the upper frame has moved along x: the box's extent beyond L."""
+    return speed * max(0.0, t)
+
+
+def remove_escaped(O, grains: list, x_hi: float, W: float, margin: float) -> int:
+    """Erase the grains that have left the box (squeezed out through the gap between the frames, then falling
+    outside it) and return how many: a grain outside [−margin, x_hi + margin] × [−margin, W + margin] or below the
+    floor."""
+    gone = []
+    for i in grains:
+        b = O.bodies[i]
+        if b is None:
+            continue
+        x, y, z = b.state.pos
+        if x < -margin or x > x_hi + margin or y < -margin or y > W + margin or z < -margin:
+            gone.append(i)
+    for i in gone:
+        O.bodies.erase(i)
+    return len(gone)
 
 
 def across_plane(O, n_grains: int, plane: float) -> float:
@@ -157,6 +175,7 @@ def arguments():
     p.add_argument("--stress", type=option("--stress", STRESS, many=True), default=[50.0, 100.0, 200.0],
                    help="normal stresses, kPa (one sample each; default 50,100,200)")
     p.add_argument("--speed", type=option("--speed", SPEED), default=0.05, help="shearing speed, m/s (default 0.05)")
+    bed.add_test_set(p)
     p.add_argument("--out", type=folder("--out"), help="where the result goes (default results/soils/shear)")
     return p
 
@@ -166,8 +185,10 @@ def main(argv=None) -> int:
     a = arguments().parse_args(argv)
     stresses = a.stress
     try:
+        test = {**parse_overrides(a.set), **parse_overrides(a.test_set)}
+        soil_with(load_soil(a.soil), test)              # every override checked before a bed settles
         bed_path = bed.bed_from_args(a)
-        rows = [run(bed_path, a.soil, s, a.speed, a.threads, parse_overrides(a.set)) for s in stresses]
+        rows = [run(bed_path, a.soil, s, a.speed, a.threads, test) for s in stresses]
     except (ConfigError, ValueError) as e:
         print(f"shear: {e}", file=sys.stderr)
         return 2
@@ -179,7 +200,7 @@ def main(argv=None) -> int:
     out = Path(a.out) if a.out else ROOT / "results/soils/shear"
     name = f"{rows[0]['bed']}-{'_'.join(f'{s:g}' for s in stresses)}"
     summary = {"bed": rows[0]["bed"], "soil": rows[0]["soil"], "radius_mm": 1000 * rows[0]["radius_m"],
-               "overrides": parse_overrides(a.set), **fit, "tests": rows}
+               "overrides": test, **fit, "tests": rows}
     atomic_write(out / f"{name}.json", json.dumps(summary, indent=1))
     print(json.dumps({k: v for k, v in summary.items() if k != "tests"}))
     return 0

@@ -65,9 +65,9 @@ def typed_options(parser: argparse.ArgumentParser, prefix=()):
 
 def scene_parsers():
     """The YADE scenes' own command lines (parsed before any scene starts)."""
-    from scripts import beds, cone, shear
+    from scripts import beds, collapse, cone, shear
     return {("bed",): beds.bed_arguments("bed", "100,100,100"), ("cone",): cone.arguments(),
-            ("shear",): shear.arguments(), ("run",): arguments()}
+            ("shear",): shear.arguments(), ("collapse",): collapse.arguments(), ("run",): arguments()}
 
 
 OPTIONS = [*typed_options(cli.build_parser()),

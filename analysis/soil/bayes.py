@@ -15,11 +15,13 @@ HOLE_METRICS = {"L0", "L1", "L2", "L2_surface", "h1", "C", "pass_rate"}   # neve
 
 
 def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations: int = 4,
-              seed_ess: float = 0.3, seed: int = 0) -> dict:
+              seed_ess: float = 0.3, seed: int = 0, batch: bool = False) -> dict:
     """Fit `bounds`' parameters ({name: (lo, hi)}) so that model(params dict) -> {response: value} meets `targets`
     ({response: value}). Returns the posterior's mean, its coefficient of variation and the most probable sample,
     per parameter, and the ensemble of the last iteration (its parameters and weights). `seed`: the resampling's
-    random state (the first samples are an unscrambled Halton sequence), so a calibration repeats itself."""
+    random state (the first samples are an unscrambled Halton sequence), so a calibration repeats itself.
+    `batch`: the model takes an iteration's list of parameter dicts at once and returns their responses in order
+    (so it can run them side by side)."""
     from grainlearning import BayesianCalibration, DynamicSystem
     names, responses = list(bounds), list(targets)
     holes = sorted(set(responses) & HOLE_METRICS)
@@ -31,11 +33,9 @@ def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations:
         raise ValueError("calibrate: allowed two targets or more, none of them 0 (each scales its own error)")
 
     def run(calib):
-        sims = []
-        for row in calib.system.param_data:
-            out = model(dict(zip(names, row)))
-            sims.append(np.array([[float(out[r]) for r in responses]]))
-        calib.system.set_sim_data(sims)
+        rows = [dict(zip(names, map(float, row))) for row in calib.system.param_data]
+        outs = model(rows) if batch else [model(row) for row in rows]
+        calib.system.set_sim_data([np.array([[float(out[r]) for r in responses]]) for out in outs])
 
     calib = BayesianCalibration.from_dict({
         "num_iter": iterations, "callback": run, "save_fig": -1,

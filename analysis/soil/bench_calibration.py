@@ -1,0 +1,203 @@
+"""The soils' bench calibration: three contact parameters per soil (intact bond strength, inter-particle friction,
+the cohesion a contact gets when it forms after disturbance) fitted with GrainLearning's Bayesian filter
+(analysis/soil/bayes.py) to the direct shear box's c and φ and the collapse test's slope
+(configs/field/soil_targets.csv), every evaluation a YADE run of scripts/shear.py and scripts/collapse.py in its
+own folder, results/calibration/bench/<soil>/<id>/, reused when the filter asks for it again (the filter's
+samples repeat themselves: its random state is fixed), so a stopped calibration resumes. The holes never enter.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+import time
+import tomllib
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.core.io import atomic_csv, atomic_write, say
+from analysis.core.runner import run_process
+from analysis.core.schema import ROOT, ConfigError
+
+CONFIG = ROOT / "configs/bench_calibration.toml"
+TARGETS = ROOT / "configs/field/soil_targets.csv"
+BENCH_DIR = ROOT / "results/calibration/bench"
+RESPONSES = ("c_kpa", "phi_deg", "collapse_deg")
+
+
+def load_config(path: Path = CONFIG) -> dict:
+    """The calibration's settings and its parameters' prior ranges, checked."""
+    cfg = tomllib.loads(Path(path).read_text())
+    bench, bounds = cfg.get("bench", {}), cfg.get("bounds", {})
+    need = {"resolution", "size_mm", "stresses_kpa", "calibration_seed", "check_seeds", "samples", "iterations", "workers"}
+    if need - set(bench):
+        raise ConfigError(f"{path}: [bench] lacks {', '.join(sorted(need - set(bench)))}")
+    for name, rng in bounds.items():
+        if len(rng) != 2 or not rng[0] < rng[1]:
+            raise ConfigError(f"{path}: bounds.{name} = {rng}: allowed [lo, hi] with lo < hi")
+    if len(bounds) < 3:
+        raise ConfigError(f"{path}: [bounds] names {len(bounds)} parameters: allowed three or more")
+    return {**bench, "bounds": {k: tuple(map(float, v)) for k, v in bounds.items()}}
+
+
+def load_targets(soil: str, path: Path = TARGETS) -> pd.DataFrame:
+    """The soil's bench targets: response, lo, hi, the value (the range's middle) and the source."""
+    t = pd.read_csv(path, comment="#")
+    t = t[t["soil"] == soil].set_index("response")
+    if t.empty or set(RESPONSES) - set(t.index):
+        raise ConfigError(f"{path}: soil {soil!r} needs a target for each of {', '.join(RESPONSES)}")
+    t["value"] = (t["lo"] + t["hi"]) / 2
+    return t
+
+
+def evaluation_id(soil: str, seed: int, params: dict, cfg: dict) -> str:
+    """One evaluation's folder name: the soil, the packing and a hash of the parameters (4 significant digits)
+    and the bench's settings."""
+    key = {"soil": soil, "seed": seed, "params": {k: float(f"{v:.4g}") for k, v in sorted(params.items())},
+           "resolution": cfg["resolution"], "size_mm": list(cfg["size_mm"]), "stresses": list(cfg["stresses_kpa"])}
+    return f"s{seed}-{hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]}"
+
+
+def overrides(params: dict) -> list[str]:
+    """The scenes' --test-set items for a parameter set (the shear bond kept equal to the normal bond)."""
+    rounded = {k: float(f"{v:.4g}") for k, v in params.items()}
+    if "normal_cohesion" in rounded:
+        rounded["shear_cohesion"] = rounded["normal_cohesion"]
+    return [f"{k}={v}" for k, v in rounded.items()]
+
+
+def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
+    """Run (or reuse) the shear box and the collapse test of one parameter set on one packing; returns the
+    responses with the parameters. A failed scene raises RuntimeError with its log's tail."""
+    folder = Path(out_dir) / soil / evaluation_id(soil, seed, params, cfg)
+    done = folder / "responses.json"
+    if done.exists():
+        return json.loads(done.read_text())
+    folder.mkdir(parents=True, exist_ok=True)
+    common = ["--soil", soil, "--resolution", cfg["resolution"], "--size", ",".join(map(str, cfg["size_mm"])),
+              "--seed", str(seed), "--threads", "1", "--out", str(folder)]
+    for item in overrides(params):
+        common += ["--test-set", item]
+    wall0 = time.time()
+    results = {}
+    for scene, extra in (("shear", ["--stress", ",".join(map(str, cfg["stresses_kpa"]))]), ("collapse", [])):
+        with open(folder / f"{scene}.log", "w") as log:
+            code, out = run_process([sys.executable, str(ROOT / f"scripts/{scene}.py"), *common, *extra],
+                                    lambda line: log.write(line))
+        if code != 0:
+            tail = "".join((folder / f"{scene}.log").read_text().splitlines(keepends=True)[-8:])
+            raise RuntimeError(f"{soil} {folder.name}: scripts/{scene}.py exited {code}:\n{tail}")
+        results[scene] = json.loads(out.strip().splitlines()[-1])
+    row = {"id": folder.name, "soil": soil, "seed": seed, **params, "c_kpa": results["shear"]["c_kpa"],
+           "phi_deg": results["shear"]["phi_deg"], "collapse_deg": results["collapse"]["angle_deg"],
+           "collapse_runout_mm": results["collapse"]["runout_mm"],
+           "tau_peak_kpa": _shear_peaks(folder), "wall_s": time.time() - wall0}
+    atomic_write(done, json.dumps(row, indent=1))
+    return row
+
+
+def _shear_peaks(folder: Path) -> list[float]:
+    """The peak shear stresses (kPa) of the evaluation's shear box, one per normal stress."""
+    for path in folder.glob("*.json"):
+        tests = json.loads(path.read_text()).get("tests")
+        if tests:
+            return [t["tau_peak_kpa"] for t in tests]
+    return []
+
+
+def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out_dir: Path = BENCH_DIR) -> list[dict]:
+    """Every (seed, parameters) evaluation, `cfg["workers"]` at a time, with progress and an ETA."""
+    rows: list = [None] * len(seeds_params)
+    wall0, durations = time.time(), []
+
+    def one(i):
+        seed, params = seeds_params[i]
+        rows[i] = evaluate(soil, seed, params, cfg, out_dir)
+        durations.append(time.time() - wall0)
+        left = len(seeds_params) - len(durations)
+        say(f"calibrate {soil}: {len(durations)}/{len(seeds_params)} evaluations done, {time.time() - wall0:.0f} s, "
+            f"ETA {(time.time() - wall0) / len(durations) * left:.0f} s")
+
+    with ThreadPoolExecutor(max_workers=int(cfg["workers"])) as pool:
+        list(pool.map(one, range(len(seeds_params))))
+    return rows
+
+
+def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> dict:
+    """The soil's posterior over cfg's bounds against its targets; writes results/calibration/bench/<soil>.csv
+    (every evaluation with its iteration and last weight) and <soil>-posterior.json."""
+    from analysis.soil.bayes import calibrate as bayes
+    cfg = cfg or load_config()
+    targets = load_targets(soil)
+    seed = int(cfg["calibration_seed"])
+    history = []
+
+    def model_batch(rows: list[dict]) -> list[dict]:
+        out = evaluate_all(soil, [(seed, p) for p in rows], cfg, out_dir)
+        history.append(out)
+        return out
+
+    post = bayes(model_batch, {r: float(targets.loc[r, "value"]) for r in RESPONSES}, cfg["bounds"],
+                 samples=int(cfg["samples"]), iterations=int(cfg["iterations"]), batch=True)
+    table = pd.DataFrame([{**r, "iteration": i + 1} for i, rows in enumerate(history) for r in rows])
+    table["weight_last"] = np.nan
+    last = table["iteration"] == table["iteration"].max()
+    table.loc[last, "weight_last"] = np.asarray(post["weights"])[-1] if np.ndim(post["weights"]) > 1 else post["weights"]
+    summary = {k: post[k] for k in ("names", "mean", "cv", "most_probable")}
+    summary["interval"] = weighted_intervals(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
+    summary["correlation"] = weighted_correlation(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
+    summary["targets"] = {r: [float(targets.loc[r, "lo"]), float(targets.loc[r, "hi"]), targets.loc[r, "source"]]
+                          for r in RESPONSES}
+    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_csv(table.drop(columns=["tau_peak_kpa"]), Path(out_dir) / f"{soil}.csv")
+    atomic_write(Path(out_dir) / f"{soil}-posterior.json", json.dumps(summary, indent=1))
+    return summary
+
+
+def weighted_intervals(table: pd.DataFrame, names: list[str], w) -> dict:
+    """Each parameter's 2.5-97.5 % weighted quantiles over the last iteration's samples.
+
+    >>> t = pd.DataFrame({"a": [1.0, 2.0, 3.0, 4.0]})
+    >>> weighted_intervals(t, ["a"], [0, 0.5, 0.5, 0])
+    {'a': [2.0, 3.0]}
+    """
+    w = np.asarray(w, float) / np.sum(w)
+    out = {}
+    for n in names:
+        order = np.argsort(table[n].to_numpy())
+        x, c = table[n].to_numpy()[order], np.cumsum(w[order])
+        out[n] = [float(x[np.searchsorted(c, 0.025)]), float(x[min(len(x) - 1, np.searchsorted(c, 0.975))])]
+    return out
+
+
+def weighted_correlation(table: pd.DataFrame, names: list[str], w) -> dict:
+    """The parameters' weighted correlation matrix over the last iteration's samples, as nested dicts."""
+    x = table[names].to_numpy(float)
+    w = np.asarray(w, float) / np.sum(w)
+    m = w @ x
+    cov = (x - m).T @ ((x - m) * w[:, None])
+    sd = np.sqrt(np.maximum(np.diag(cov), 1e-300))
+    corr = cov / np.outer(sd, sd)
+    return {a: {b: round(float(corr[i, j]), 3) for j, b in enumerate(names)} for i, a in enumerate(names)}
+
+
+def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> dict:
+    """The posterior mean's bench responses on each check packing against the targets' ranges; writes
+    results/calibration/bench/<soil>-check.csv. Returns per response: the mean over packings, their SD and
+    whether every packing lies inside the target's range."""
+    cfg = cfg or load_config()
+    targets = load_targets(soil)
+    params = {k: float(v) for k, v in post["mean"].items()}
+    rows = evaluate_all(soil, [(int(s), params) for s in cfg["check_seeds"]], cfg, out_dir)
+    table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"])
+    atomic_csv(table, Path(out_dir) / f"{soil}-check.csv")
+    out = {}
+    for r in RESPONSES:
+        lo, hi = float(targets.loc[r, "lo"]), float(targets.loc[r, "hi"])
+        v = table[r].to_numpy(float)
+        out[r] = {"mean": float(v.mean()), "sd": float(v.std(ddof=1)) if len(v) > 1 else float("nan"),
+                  "target": [lo, hi], "every_packing_inside": bool(np.all((v >= lo) & (v <= hi)))}
+    return out

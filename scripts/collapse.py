@@ -1,0 +1,130 @@
+"""Scene: the collapse of a column of disturbed soil (a soil bench test): the slope disturbed soil stands at.
+
+    .venv/bin/python scripts/collapse.py --soil clay --resolution medium --size 150,150,100
+
+A settled bed's grains stand in a box (a back wall, two smooth side walls, a gate, a rough floor reaching
+RUNOUT_LENGTHS × the column's length beyond the gate). Every contact is a new one, bonded at the soil's
+`new_contact_cohesion` of the intact bonds' strength: the column is soil that a tool has broken and that has
+been pressed together again, what falls back into a hole. The gate is taken away and the column slumps under
+gravity until no grain moves faster than STILL_SPEED. The slope angle is the steepest line fitted to the
+surface's height profile between SLOPE_BAND of the final height (the surface: the highest grain top per bin of
+one grain diameter along the run-out), the front the farthest a grain got. Writes
+results/soils/collapse/<bed key>.json (or --out) and prints it as a JSON line.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from analysis.core.cli_types import folder  # noqa: E402
+from analysis.core.schema import ROOT, ConfigError  # noqa: E402
+from analysis.core.soil_config import load_soil, parse_overrides, soil_with  # noqa: E402
+from analysis.core.io import atomic_write  # noqa: E402
+from analysis.soil.collapse import slope_angle  # noqa: E402
+
+RUNOUT_LENGTHS = 2.5           # the floor beyond the gate, in column lengths
+STILL_SPEED = 0.01             # m/s: the collapse is over when no grain moves faster
+MIN_TIME = 0.3                 # s before the stillness is checked (the gate's opening takes a few ms)
+MAX_TIME = 3.0                 # s: a column still moving by then is reported as such, never as a slope
+
+
+def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None = None, quiet: bool = False) -> dict:
+    """Let the bed's column of disturbed soil collapse; return its slope, height and run-out."""
+    soil = soil_with(load_soil(soil_name), overrides or {})
+    from scripts.beds import load_meta
+    meta = load_meta(bed_path)
+    L, W, D = meta["size_m"]
+    log = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+
+    from scripts.yadeboot import boot
+    boot(threads)
+    import numpy as np
+    from yade import O, utils
+    from scripts import soil as part
+
+    wall0 = time.time()
+    O.reset()
+    data = np.load(bed_path)
+    r = float(np.mean(data["radius"]))
+    top0 = float(np.max(data["pos"][:, 2] + data["radius"]))
+    disturbed = soil_with(soil, {"normal_cohesion": soil.new_contact_cohesion * soil.normal_cohesion,
+                                 "shear_cohesion": soil.new_contact_cohesion * soil.shear_cohesion})
+    mat = O.materials.append(part.soil_material(disturbed, density=meta["grain_density"], cohesive=True))
+    smooth = O.materials.append(part.steel_material(soil, friction_deg=0.0))
+    rough = O.materials.append(part.steel_material(soil, friction_deg=soil.friction_deg))   # soil on soil
+    grains = list(O.bodies.append([utils.sphere(tuple(p), rr, material=mat)
+                                   for p, rr in zip(data["pos"], data["radius"])]))
+    t, H = 0.02, top0 + 0.05
+    far = L * (1 + RUNOUT_LENGTHS)
+    O.bodies.append([
+        utils.box((far / 2, W / 2, -t), (far / 2 + t, W / 2 + t, t), fixed=True, material=rough),      # floor
+        utils.box((-t, W / 2, H / 2), (t, W / 2 + t, H / 2), fixed=True, material=smooth),             # back wall
+        utils.box((far / 2, -t, H / 2), (far / 2 + t, t, H / 2), fixed=True, material=smooth),         # sides
+        utils.box((far / 2, W + t, H / 2), (far / 2 + t, t, H / 2), fixed=True, material=smooth)])
+    gate = O.bodies.append(utils.box((L + t, W / 2, H / 2), (t, W / 2, H / 2), fixed=True, material=smooth))
+    O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True)
+    O.dt = 0.5 * utils.PWaveTimeStep()
+    O.run(1, True)                                    # every contact bonded at the disturbed soil's strength
+    O.bodies.erase(gate)
+    still = False
+    while O.time < MAX_TIME:
+        O.run(1000, True)
+        v = np.array([O.bodies[i].state.vel.norm() for i in grains])
+        if not np.all(np.isfinite(v)) or v.max() > 20.0:
+            raise RuntimeError(f"collapse: a grain moves at {np.nanmax(v):.2f} m/s at t = {O.time:.3f} s (unstable)")
+        front = max(O.bodies[i].state.pos[0] for i in grains)
+        log(f"collapse: t {O.time:.2f} s  fastest grain {v.max():.3f} m/s  front {1000 * front:.0f} mm  "
+            f"wall {time.time() - wall0:.0f} s")
+        if O.time > MIN_TIME and v.max() < STILL_SPEED:
+            still = True
+            break
+    if not still:
+        raise RuntimeError(f"collapse: grains still move at {v.max():.3f} m/s after {MAX_TIME} s")
+    pos = np.array([O.bodies[i].state.pos for i in grains])
+    rad = np.array([O.bodies[i].shape.radius for i in grains])
+    edges = np.arange(0.0, far + 2 * r, 2 * r)
+    which = np.digitize(pos[:, 0], edges) - 1
+    top = np.zeros(len(edges) - 1)
+    np.maximum.at(top, np.clip(which, 0, len(top) - 1), pos[:, 2] + rad)
+    slope = slope_angle((edges[:-1] + edges[1:]) / 2, top)
+    return {"bed": meta["key"], "soil": soil.name, "radius_m": r, "size_m": [L, W, D],
+            "new_contact_cohesion": soil.new_contact_cohesion, "angle_deg": slope["angle_deg"], "slope_bins": slope["bins"],
+            "height_ratio": slope["height_m"] / top0, "runout_mm": 1000 * (float(np.max(pos[:, 0] + rad)) - L),
+            "particles": len(grains), "steps": int(O.iter), "dt": O.dt, "time_s": O.time, "wall_s": time.time() - wall0,
+            "threads": threads, "profile_mm": [[round(1000 * a, 1), round(1000 * b, 1)] for a, b in zip(edges[:-1], top)]}
+
+
+def arguments():
+    """The collapse test's command line: the bed's options, the test's overrides and where the result goes."""
+    from scripts import beds as bed
+    p = bed.bed_arguments(__doc__.splitlines()[0], "150,150,100", "holes collapse")
+    bed.add_test_set(p)
+    p.add_argument("--out", type=folder("--out"), help="where the result goes (default results/soils/collapse)")
+    return p
+
+
+def main(argv=None) -> int:
+    from scripts import beds as bed
+    a = arguments().parse_args(argv)
+    try:
+        test = {**parse_overrides(a.set), **parse_overrides(a.test_set)}
+        soil_with(load_soil(a.soil), test)              # every override checked before a bed settles
+        row = run(bed.bed_from_args(a), a.soil, a.threads, test)
+    except (ConfigError, ValueError) as e:
+        print(f"collapse: {e}", file=sys.stderr)
+        return 2
+    except RuntimeError as e:
+        print(f"collapse stopped: {e}", file=sys.stderr)
+        return 3
+    out = Path(a.out) if a.out else ROOT / "results/soils/collapse"
+    row["overrides"] = test
+    atomic_write(out / f"{row['bed']}.json", json.dumps(row, indent=1))
+    print(json.dumps({k: v for k, v in row.items() if k != "profile_mm"}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,131 @@
+"""The soils' bench calibration (analysis/soil/bench_calibration.py) and its bench tests (scripts/shear.py,
+scripts/collapse.py): the targets and settings are checked, an evaluation is reused rather than run again, the
+filter's posterior and the packings' check are written, and (scene tier) the shear box and the collapse test
+answer the contact parameters the way a granular soil does."""
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis.core.schema import ConfigError
+from analysis.soil import bench_calibration as bench
+from analysis.soil.bayes import HOLE_METRICS, calibrate
+
+
+def made_up_bench(p: dict) -> dict:
+    """c, φ and a collapse slope, smooth in the three parameters, each leaning on a different mix of them."""
+    return {"c_kpa": 0.4 * p["normal_cohesion"] / 1e3 + 8 * p["new_contact_cohesion"],
+            "phi_deg": 0.7 * p["friction_deg"] + 6 * p["new_contact_cohesion"],
+            "collapse_deg": 0.6 * p["friction_deg"] + 45 * p["new_contact_cohesion"]}
+
+
+def test_every_soil_has_a_sourced_range_for_each_bench_response_and_none_is_a_hole_metric():
+    t = pd.read_csv(bench.TARGETS, comment="#")
+    assert not set(t["response"]) & HOLE_METRICS
+    for soil in ("clay", "loam", "sand"):
+        s = bench.load_targets(soil)
+        assert set(bench.RESPONSES) <= set(s.index)
+        assert (s["lo"] < s["hi"]).all() and s["source"].str.len().min() > 3
+
+
+def test_bounds_out_of_order_are_refused(tmp_path):
+    text = bench.CONFIG.read_text().replace("friction_deg = [15.0, 40.0]", "friction_deg = [40.0, 15.0]")
+    (tmp_path / "b.toml").write_text(text)
+    with pytest.raises(ConfigError, match="bounds.friction_deg"):
+        bench.load_config(tmp_path / "b.toml")
+
+
+def test_the_batch_model_gives_the_one_by_one_posterior():
+    bounds = bench.load_config()["bounds"]
+    truth = {"normal_cohesion": 40e3, "friction_deg": 28.0, "new_contact_cohesion": 0.3}
+    one = calibrate(made_up_bench, made_up_bench(truth), bounds, samples=12, iterations=2)
+    many = calibrate(lambda rows: [made_up_bench(r) for r in rows], made_up_bench(truth), bounds, samples=12,
+                     iterations=2, batch=True)
+    assert one["mean"] == pytest.approx(many["mean"])
+
+
+def test_a_finished_evaluation_is_read_back_never_run_again(tmp_path, monkeypatch):
+    cfg = bench.load_config()
+    params = {"normal_cohesion": 30e3, "friction_deg": 25.0, "new_contact_cohesion": 0.5}
+    folder = tmp_path / "clay" / bench.evaluation_id("clay", 2, params, cfg)
+    folder.mkdir(parents=True)
+    (folder / "responses.json").write_text(json.dumps({"c_kpa": 1.0}))
+    monkeypatch.setattr(bench, "run_process", lambda *a: pytest.fail("a finished evaluation ran again"))
+    assert bench.evaluate("clay", 2, params, cfg, tmp_path) == {"c_kpa": 1.0}
+    assert bench.evaluation_id("clay", 2, {**params, "friction_deg": 25.000001}, cfg) == folder.name
+    assert bench.evaluation_id("clay", 3, params, cfg) != folder.name
+
+
+def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp_path, monkeypatch):
+    """Through a made-up bench whose packings scatter: the filter's samples, the posterior with intervals and
+    correlations, and the check of the posterior mean against the targets' ranges on each check packing."""
+    calls = []
+
+    def fake(soil, seed, params, cfg, out_dir):
+        calls.append(seed)
+        return {"soil": soil, "seed": seed, **params, **{k: v * (1 + 0.01 * seed) for k, v in made_up_bench(params).items()},
+                "tau_peak_kpa": [], "wall_s": 0.0}
+    monkeypatch.setattr(bench, "evaluate", fake)
+    cfg = {**bench.load_config(), "samples": 10, "iterations": 2, "workers": 1}
+    post = bench.calibrate("clay", cfg, tmp_path)
+    assert set(calls) == {cfg["calibration_seed"]} and len(calls) == 20
+    table = pd.read_csv(tmp_path / "clay.csv", comment="#")
+    assert len(table) == 20 and table["weight_last"].notna().sum() == 10
+    for name, (lo, hi) in post["interval"].items():
+        assert cfg["bounds"][name][0] <= lo <= hi <= cfg["bounds"][name][1]
+    assert post["correlation"]["friction_deg"]["friction_deg"] == pytest.approx(1.0)
+    assert json.loads((tmp_path / "clay-posterior.json").read_text())["mean"] == post["mean"]
+    result = bench.check("clay", post, cfg, tmp_path)
+    assert sorted(set(calls[20:])) == sorted(cfg["check_seeds"])
+    for r in bench.RESPONSES:
+        assert math.isfinite(result[r]["mean"]) and result[r]["sd"] > 0
+        assert isinstance(result[r]["every_packing_inside"], bool)
+
+
+def test_an_override_out_of_range_stops_the_collapse_test_before_any_bed(capsys):
+    from scripts import collapse
+    assert collapse.main(["--soil", "clay", "--bed-dir", "/nonexistent", "--test-set", "friction_deg=99"]) == 2
+    assert "friction_deg" in capsys.readouterr().err
+
+
+def test_the_collapse_slope_reads_a_made_up_heap():
+    from analysis.soil.collapse import slope_angle
+    x = np.arange(0, 0.4, 0.012)
+    for angle in (25.0, 40.0, 60.0):
+        h = np.clip(0.1 - (x - 0.1) * math.tan(math.radians(angle)), 0, 0.1)
+        assert slope_angle(x, h)["angle_deg"] == pytest.approx(angle, abs=1.0)
+    assert slope_angle(x, np.where(x < 0.15, 0.1, 0.0))["angle_deg"] == 90.0
+
+
+SMALL = ["--soil", "sand", "--resolution", "medium", "--size", "100,100,60", "--threads", "1"]
+
+
+@pytest.mark.scene
+def test_a_cohesionless_shear_box_gives_a_friction_angle_that_grows_with_the_grains_friction(tmp_path):
+    """Sand's grains without any bond at two inter-particle frictions: c near zero (within a quarter of the
+    stress range's shear strength) and φ higher for the rougher grains."""
+    from scripts import shear
+    fits = {}
+    for mu in (15.0, 35.0):
+        out = tmp_path / f"mu{mu:g}"
+        assert shear.main([*SMALL, "--bed-dir", str(tmp_path / "beds"), "--out", str(out), "--stress", "25,75",
+                           "--test-set", f"friction_deg={mu}", "--test-set", "normal_cohesion=0",
+                           "--test-set", "shear_cohesion=0"]) == 0
+        fits[mu] = json.loads(next(out.glob("*.json")).read_text())
+    for fit in fits.values():
+        assert abs(fit["c_kpa"]) < 0.25 * max(t["tau_peak_kpa"] for t in fit["tests"]), fit["c_kpa"]
+    assert fits[35.0]["phi_deg"] > fits[15.0]["phi_deg"] + 3, (fits[15.0]["phi_deg"], fits[35.0]["phi_deg"])
+
+
+@pytest.mark.scene
+def test_disturbed_soil_with_its_bonds_back_stands_steeper_than_without(tmp_path):
+    from scripts import collapse
+    angles = {}
+    for frac in (0.0, 1.0):
+        out = tmp_path / f"f{frac:g}"
+        assert collapse.main([*SMALL, "--bed-dir", str(tmp_path / "beds"), "--out", str(out),
+                              "--test-set", f"new_contact_cohesion={frac}"]) == 0
+        angles[frac] = json.loads(next(out.glob("*.json")).read_text())["angle_deg"]
+    assert 15 < angles[0.0] < 60 and angles[1.0] > angles[0.0] + 10, angles
