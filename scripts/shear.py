@@ -4,8 +4,12 @@
 
 Parts: bed (scripts/beds.py; intact bonds on the settled contacts; a contact made later gets the soil's
 new_contact_cohesion of their strength, as in the tool scenes), box (the lower half fixed, the upper half's four
-thin walls pushed along +x at a constant speed, the shear plane at mid-height with a gap of one grain diameter
-between the frames, so no grain is pinched there; frames and lid smooth, so no wall friction wedges the sample),
+thin walls pushed along +x at a constant speed, the shear plane at mid-height with a gap between the frames of
+GAP × the smallest grain's diameter, so no grain is squeezed out through it, and the lower half's rim reaching
+beyond it as far as the upper half travels, so the soil the upper half carries past the lower one rests on it
+as it does on a real box's rim (a grain that leaves all the same is
+taken away and counted; more than MAX_ESCAPED of them stop the test); frames and lid smooth, so no wall
+friction wedges the sample),
 lid (a plate resting on the sample under a dead load σn·A, free to rise and sink, moving with the upper half),
 recorder (the shear force the upper half takes, and the shear and normal forces the grains pass across the shear
 plane through their contacts, against the shift, each over the sheared area). One fresh sample per normal stress,
@@ -33,6 +37,7 @@ SHEAR_STRAIN = 0.2             # the upper half is pushed this fraction of the b
 CONSOLIDATE_S = 0.05           # s under the lid's load before shearing
 LID_T = 0.01                   # m: the lid's half-thickness
 FRAME_T = 0.002                # m: the frames' half-thickness (a thin edge at the shear plane)
+GAP = 0.9                      # the gap between the frames, in the smallest grain's diameters: no grain passes it
 MAX_ESCAPED = 0.01             # the share of the grains that may leave through the gap before the box is a leak
 CHUNK = 50                     # steps between two records of the curve (0.09 mm of shift at 0.05 m/s, r = 6 mm)
 
@@ -62,8 +67,11 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     grains = list(O.bodies.append([utils.sphere(tuple(p), rr, material=mat)
                                    for p, rr in zip(data["pos"], data["radius"])]))
     n_grains = len(grains)
-    plane, gap, t, height = D / 2, 2 * r, FRAME_T, top + 0.1
+    plane, gap, t, height = D / 2, GAP * 2 * float(np.min(data["radius"])), FRAME_T, top + 0.1
     lower = part.container(L, W, plane - gap / 2, steel, t=t)       # floor and walls up to the shear plane
+    rim = SHEAR_STRAIN * L + 4 * r              # the lower half's rim beyond x = L: the upper half's soil rests on it
+    lower.append(utils.box((L + 2 * t + rim / 2, W / 2, (plane - gap / 2) / 2), (rim / 2, W / 2 + t, (plane - gap / 2) / 2),
+                           fixed=True, material=steel))
     upper = [utils.box(c, e, fixed=True, material=steel) for c, e in (
         ((-t, W / 2, (plane + gap / 2 + height) / 2), (t, W / 2 + t, (height - plane - gap / 2) / 2)),
         ((L + t, W / 2, (plane + gap / 2 + height) / 2), (t, W / 2 + t, (height - plane - gap / 2) / 2)),
@@ -124,7 +132,7 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
             "sigma_plane_mean_kpa": float(d[:, 4].mean() / 1e3),
             "friction_plane_peak": float((d[:, 3] / np.maximum(d[:, 4], 1e-9)).max()),
             "shift_at_peak_mm": float(1000 * d[int(np.argmax(d[:, 1])), 0]),
-            "lid_rise_mm": float(1000 * d[-1, 2]), "particles": len(grains), "escaped": escaped, "steps": int(O.iter), "dt": O.dt,
+            "lid_rise_mm": float(1000 * d[-1, 2]), "particles": len(grains), "escaped": escaped, "gap_mm": 1000 * gap, "steps": int(O.iter), "dt": O.dt,
             "wall_s": time.time() - wall0, "threads": threads,
             "curve": [[round(1000 * a, 3), round(b / 1e3, 3), round(1000 * c, 3), round(e / 1e3, 3), round(s / 1e3, 3)]
                       for a, b, c, e, s in d[::2]]}

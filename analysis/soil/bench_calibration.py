@@ -26,6 +26,7 @@ CONFIG = ROOT / "configs/bench_calibration.toml"
 TARGETS = ROOT / "configs/field/soil_targets.csv"
 BENCH_DIR = ROOT / "results/calibration/bench"
 RESPONSES = ("c_kpa", "phi_deg", "collapse_deg")
+SCENES_VERSION = 1     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
 
 
 def load_config(path: Path = CONFIG) -> dict:
@@ -57,7 +58,8 @@ def evaluation_id(soil: str, seed: int, params: dict, cfg: dict) -> str:
     """One evaluation's folder name: the soil, the packing and a hash of the parameters (4 significant digits)
     and the bench's settings."""
     key = {"soil": soil, "seed": seed, "params": {k: float(f"{v:.4g}") for k, v in sorted(params.items())},
-           "resolution": cfg["resolution"], "size_mm": list(cfg["size_mm"]), "stresses": list(cfg["stresses_kpa"])}
+           "resolution": cfg["resolution"], "size_mm": list(cfg["size_mm"]), "stresses": list(cfg["stresses_kpa"]),
+           "scenes": SCENES_VERSION}
     return f"s{seed}-{hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]}"
 
 
