@@ -143,6 +143,7 @@ def cmd_calibrate_bench(args) -> int:
     except RuntimeError as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1
+    bench.report()
     print(json.dumps({"posterior": post["mean"], "interval": post["interval"], "check": check}))
     return 0
 
@@ -215,8 +216,10 @@ def cmd_cone_damage(args) -> int:
 
 
 def cmd_calibration_report(args) -> int:
-    from analysis.soil import calibration_report
+    from analysis.soil import bench_calibration, calibration_report
     print(calibration_report.run().to_string(index=False))
+    for path in bench_calibration.report():
+        print(f"wrote {path}")
     return 0
 
 

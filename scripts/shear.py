@@ -132,7 +132,8 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
             "sigma_plane_mean_kpa": float(d[:, 4].mean() / 1e3),
             "friction_plane_peak": float((d[:, 3] / np.maximum(d[:, 4], 1e-9)).max()),
             "shift_at_peak_mm": float(1000 * d[int(np.argmax(d[:, 1])), 0]),
-            "lid_rise_mm": float(1000 * d[-1, 2]), "particles": len(grains), "escaped": escaped, "gap_mm": 1000 * gap, "steps": int(O.iter), "dt": O.dt,
+            "lid_rise_mm": float(1000 * d[-1, 2]), "particles": len(grains), "escaped": escaped,
+            "gap_mm": 1000 * gap, "steps": int(O.iter), "dt": O.dt,
             "wall_s": time.time() - wall0, "threads": threads,
             "curve": [[round(1000 * a, 3), round(b / 1e3, 3), round(1000 * c, 3), round(e / 1e3, 3), round(s / 1e3, 3)]
                       for a, b, c, e, s in d[::2]]}

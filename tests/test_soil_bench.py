@@ -82,6 +82,7 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
     for r in bench.RESPONSES:
         assert math.isfinite(result[r]["mean"]) and result[r]["sd"] > 0
         assert isinstance(result[r]["every_packing_inside"], bool)
+    assert [p.name for p in bench.report(tmp_path)] == ["posterior.png", "responses.png"]
 
 
 def test_an_override_out_of_range_stops_the_collapse_test_before_any_bed(capsys):

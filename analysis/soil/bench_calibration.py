@@ -203,3 +203,55 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
         out[r] = {"mean": float(v.mean()), "sd": float(v.std(ddof=1)) if len(v) > 1 else float("nan"),
                   "target": [lo, hi], "every_packing_inside": bool(np.all((v >= lo) & (v <= hi)))}
     return out
+
+
+def report(out_dir: Path = BENCH_DIR) -> list[Path]:
+    """Pictures of every soil calibrated so far: the filter's samples and posterior per parameter
+    (posterior.png), and each bench response of the samples and of the posterior's check packings against the
+    target's range (responses.png)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    soils = [s for s in ("clay", "loam", "sand") if (Path(out_dir) / f"{s}.csv").exists()]
+    if not soils:
+        return []
+    names = list(load_config()["bounds"])
+    colours = {"clay": "tab:brown", "loam": "tab:olive", "sand": "tab:orange"}
+    fig, axes = plt.subplots(len(soils), len(names), figsize=(4 * len(names), 2.6 * len(soils)), squeeze=False)
+    for i, soil in enumerate(soils):
+        t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
+        post = json.loads((Path(out_dir) / f"{soil}-posterior.json").read_text())
+        last = t[t["weight_last"].notna()]
+        for j, n in enumerate(names):
+            ax = axes[i][j]
+            ax.scatter(t[n], t["iteration"], s=12, c="0.6", label="samples")
+            ax.scatter(last[n], last["iteration"], s=20 + 300 * last["weight_last"], c=colours[soil], label="last, by weight")
+            lo, hi = post["interval"][n]
+            ax.axvspan(lo, hi, color=colours[soil], alpha=0.15, label="95 % interval")
+            ax.axvline(post["mean"][n], color=colours[soil], label="posterior mean")
+            ax.set_xlabel(n), ax.set_ylabel(f"{soil}: iteration"), ax.set_yticks(sorted(t["iteration"].unique()))
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    paths = [Path(out_dir) / "posterior.png", Path(out_dir) / "responses.png"]
+    fig.savefig(paths[0], dpi=110)
+    plt.close(fig)
+    fig, axes = plt.subplots(1, len(RESPONSES), figsize=(4.2 * len(RESPONSES), 3.4), squeeze=False)
+    for j, r in enumerate(RESPONSES):
+        ax = axes[0][j]
+        for i, soil in enumerate(soils):
+            target = load_targets(soil).loc[r]
+            ax.add_patch(plt.Rectangle((i - 0.35, target["lo"]), 0.7, target["hi"] - target["lo"], color=colours[soil],
+                                       alpha=0.2, label="target range" if i == 0 else None))
+            t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
+            ax.scatter(np.full(len(t), i - 0.15), t[r], s=10, c="0.5", label="filter's samples" if i == 0 else None)
+            check_path = Path(out_dir) / f"{soil}-check.csv"
+            if check_path.exists():
+                c = pd.read_csv(check_path, comment="#")
+                ax.scatter(np.full(len(c), i + 0.15), c[r], s=36, marker="D", c=colours[soil],
+                           label="posterior mean, 3 packings" if i == 0 else None)
+        ax.set_xticks(range(len(soils)), soils), ax.set_title(r), ax.set_xlim(-0.6, len(soils) - 0.4)
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(paths[1], dpi=110)
+    plt.close(fig)
+    return paths
