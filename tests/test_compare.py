@@ -34,13 +34,13 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     hole_rows = table[~table.metric.str.startswith("pass")]
     assert hole_rows[["field_mean", "sim_mean", "abs_error"]].notna().all().all()
     assert (table.field_min <= table.field_mean).all() and (table.field_mean <= table.field_max).all()
-    holes = read_table(tmp_path / "comparison" / "test-holes.csv")
+    holes = read_table(tmp_path / "comparison" / "test" / "holes.csv")
     assert len(holes) == 2 and (holes.L2 > 0).all() and (holes.L0 > 0).all()
     assert np.allclose(holes.L2_surface, holes.L2 + holes.h1, atol=0.02)     # §4.2's other reading of L2
     for m in table.metric:
-        assert (tmp_path / "comparison" / f"test-{m}.png").stat().st_size > 5000
+        assert (tmp_path / "comparison" / "test" / f"{m}.png").stat().st_size > 5000
     assert "| clay | L0 |" in (tmp_path / "comparison.md").read_text()
-    reach = read_table(tmp_path / "comparison" / "test-depth_reach.csv")     # L2 + h1 per field run and the run
+    reach = read_table(tmp_path / "comparison" / "test" / "depth_reach.csv")     # L2 + h1 per field run and the run
     assert len(reach) == 5 and set(reach.soil) == {"clay"}
     sim = reach[reach.source == "simulated"].iloc[0]
     assert sim.n == 2 and abs(sim.L2_plus_h1 - (holes.L2 + holes.h1).mean()) < 0.01
@@ -63,7 +63,7 @@ def test_compare_writes_every_column_metric_and_plot(scene_dirs, tmp_path, side_
     assert np.allclose(rule[["L0", "L1"]], holes.set_index("hole")[["L0", "L1"]], atol=0.01)
     assert np.allclose(levels.ahead + levels.behind, levels.L0, atol=0.01, equal_nan=True)
     assert set(levels.below) == set(LEVELS) and (tmp_path / "rings" / "levels-clay.png").stat().st_size > 5000
-    assert (tmp_path / "comparison" / "levels" / "test" / "levels_summary.csv").exists()
+    assert (tmp_path / "comparison" / "test" / "levels" / "levels_summary.csv").exists()
     assert set(table.claim_10pct.dropna()) <= {"yes", "no", "open", "not resolvable", "–"}
     # the run kept beside the table stands in for a run folder this machine does not have
     kept = tmp_path / "comparison" / "runs"

@@ -128,7 +128,7 @@ def run_presets(reference: str = "validation_surface", out=None, comparison_dir=
                          f"({machine_of[reference] or 'the disk config'}); run one with ./holes compare --preset NAME")
     costs = []
     for preset in [reference, *presets]:
-        runs = read_table(results / "comparison" / f"{preset}-holes.csv").run.unique()
+        runs = read_table(results / "comparison" / preset / "holes.csv").run.unique()
         for run in runs:
             summary = results / "comparison" / "runs" / run / "summary.json"
             if summary.exists():

@@ -1,5 +1,6 @@
 """The main job: run (or reuse) one disk scene per soil and packing seed, measure the holes, and write the
-comparison with the field (results/comparison.csv, results/comparison.md, results/comparison/*.png).
+comparison with the field (results/comparison.csv, results/comparison.md, results/comparison/<preset>/: the
+preset's holes, tables, plots and pictures).
 
 Each scene is its own YADE process (scripts/disk.py) in results/runs/<id>/, named by a hash of its
 parameters; a finished run (summary.json present) is reused, a failed one is reported with its log and the
@@ -108,7 +109,7 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = N
     write(out, preset, holes, table, field, pd.DataFrame(summaries), criteria, runs_dir, local, seeds, command,
           missing)
     if levels:
-        rings.write_levels(out / "comparison" / "levels" / preset, pd.concat(levels, ignore_index=True), command)
+        rings.write_levels(out / "comparison" / preset / "levels", pd.concat(levels, ignore_index=True), command)
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures else 0
@@ -129,8 +130,9 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     """The table, its plots and pictures; `missing` names the asked cases with no finished run (failed or not run)."""
     note = stamp(command)
     folder = out / "comparison"
-    folder.mkdir(parents=True, exist_ok=True)
-    atomic_csv(holes.round(2), folder / f"{preset}-holes.csv", note)
+    own = folder / preset                    # this preset's tables, plots and pictures
+    own.mkdir(parents=True, exist_ok=True)
+    atomic_csv(holes.round(2), own / "holes.csv", note)
     cpu = (f" and {costs.cpu_s.sum():.0f} s of CPU" if "cpu_s" in costs and costs.cpu_s.notna().all() else "")
     cost = "Cost: not recorded for these runs." if costs.empty else (
         f"Cost: {len(costs)} runs, {int(costs.particles.mean())} grains each on average, "
@@ -164,14 +166,14 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
         md += f"\nSoil ordering (clay > loam > sand): {order_text}.\n"
     bound = float(table[table.metric == "L2"].theory_envelope.iloc[0])     # the swept envelope's L2
     reach = compare.depth_reach(field[field.soil.isin(set(holes.soil))], holes, bound)
-    atomic_csv(reach, folder / f"{preset}-depth_reach.csv", "L2 + h1 per field run and simulated soil; see "
+    atomic_csv(reach, own / "depth_reach.csv", "L2 + h1 per field run and simulated soil; see "
                "analysis/holes/compare.py depth_reach")
     per_soil = []
     for soil, g in reach.groupby("soil", sort=False):
         fld, sim = g[g.source != "simulated"].L2_plus_h1, g[g.source == "simulated"].L2_plus_h1
         per_soil.append(f"{soil} field {fld.min():.1f}–{fld.max():.1f}, simulated {sim.iloc[0]:.1f}")
     md += (f"\nL2 + h1, the √2·a2 level below the undisturbed surface, against the rigid punch's deepest "
-           f"{bound:.1f} mm: {'; '.join(per_soil)} mm (`comparison/{preset}-depth_reach.csv`).\n")
+           f"{bound:.1f} mm: {'; '.join(per_soil)} mm (`comparison/{preset}/depth_reach.csv`).\n")
     loads = {}
     for run_id, soil in holes[["run", "soil"]].drop_duplicates().itertuples(index=False):
         f = folder / "runs" / run_id / "load.json"
@@ -183,27 +185,29 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
                + ", ".join(f"{soil} {sum(w) / len(w):.0f} N" for soil, w in loads.items()) + ".\n")
     trend = compare.position_trend(holes)
     if not trend.empty:
-        atomic_csv(trend.round(3), folder / f"{preset}-position_trend.csv", "per run and metric, the slope against "
+        atomic_csv(trend.round(3), own / "position_trend.csv", "per run and metric, the slope against "
                    "the hole's place along the strip (mm per hole), 95 % interval; see analysis/holes/compare.py position_trend")
         found = trend[trend.trend]
         md += (f"\nHoles along the strip (are a run's holes exchangeable?): of {len(trend)} run-metric slopes, "
                f"{len(found)} with a 95 % interval excluding 0"
                + (": " + ", ".join(f"{r.soil} {r.metric} {r.slope_per_hole:+.1f} mm per hole" for r in found.itertuples())
-                  if len(found) else "") + f" (`comparison/{preset}-position_trend.csv`).\n")
-    atomic_write(folder / f"{preset}.md", md)
+                  if len(found) else "") + f" (`comparison/{preset}/position_trend.csv`).\n")
+    atomic_write(own / "table.md", md)
     combined = out / "comparison.csv"
     if combined.exists():
         old = read_table(combined)
         table = pd.concat([old[old.preset != preset], table], ignore_index=True)
+    rank = {p: i for i, p in enumerate(MD_ORDER)}          # the main job first, then in MD_ORDER, others after
+    table = table.sort_values("preset", key=lambda c: c.map(lambda p: rank.get(p, len(rank))), kind="stable")
     atomic_csv(table.round(3), combined, "one row per preset, soil and metric; see results/comparison.md")
-    mds = sorted((p for p in folder.glob("*.md") if p.name != "README.md"),
-                 key=lambda p: (MD_ORDER.index(p.stem) if p.stem in MD_ORDER else len(MD_ORDER), p.stem))
+    mds = sorted(folder.glob("*/table.md"), key=lambda p: (MD_ORDER.index(p.parent.name) if p.parent.name in MD_ORDER
+                                                           else len(MD_ORDER), p.parent.name))
     atomic_write(out / "comparison.md", "\n".join(p.read_text() for p in mds))
-    compare_report.plot(table[table.preset == preset], holes, field, preset, folder, note)
+    compare_report.plot(table[table.preset == preset], holes, field, preset, own, note)
     atomic_csv(compare.field_consistency(field, criteria["stated"]), folder / "field_consistency.csv",
                "can each field run's pass rate be true under the stated criteria? see analysis/holes/compare.py")
     for c in local:
         if c["seed"] == min(seeds):
             for name in ("holes_top.png", "holes_sections.png"):
-                shutil.copyfile(runs_dir / c["id"] / name, folder / f"{preset}-{c['soil']['name']}-{name}")
+                shutil.copyfile(runs_dir / c["id"] / name, own / f"{c['soil']['name']}-{name}")
     print(md)

@@ -119,7 +119,7 @@ def plot(table: pd.DataFrame, holes: pd.DataFrame, field: pd.DataFrame, preset: 
         ax.legend(fontsize=7)
         fig.text(0.01, 0.005, note, fontsize=5, color="0.4")
         fig.tight_layout()
-        path = out / f"{preset}-{m}.png"
+        path = out / f"{m}.png"
         fig.savefig(path, dpi=110)
         plt.close(fig)
         paths.append(path)

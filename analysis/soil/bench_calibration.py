@@ -33,7 +33,7 @@ def load_config(path: Path = CONFIG) -> dict:
     """The calibration's settings and its parameters' prior ranges, checked."""
     cfg = tomllib.loads(Path(path).read_text())
     bench, bounds = cfg.get("bench", {}), cfg.get("bounds", {})
-    need = {"resolution", "size_mm", "stresses_kpa", "calibration_seed", "check_seeds", "samples", "iterations", "workers"}
+    need = {"resolution", "size_mm", "stresses_kpa", "speed_m_s", "calibration_seed", "check_seeds", "samples", "iterations", "workers"}
     if need - set(bench):
         raise ConfigError(f"{path}: [bench] lacks {', '.join(sorted(need - set(bench)))}")
     for name, rng in bounds.items():
@@ -59,7 +59,7 @@ def evaluation_id(soil: str, seed: int, params: dict, cfg: dict) -> str:
     and the bench's settings."""
     key = {"soil": soil, "seed": seed, "params": {k: float(f"{v:.4g}") for k, v in sorted(params.items())},
            "resolution": cfg["resolution"], "size_mm": list(cfg["size_mm"]), "stresses": list(cfg["stresses_kpa"]),
-           "scenes": SCENES_VERSION}
+           "speed": float(cfg["speed_m_s"]), "scenes": SCENES_VERSION}
     return f"s{seed}-{hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]}"
 
 
@@ -85,7 +85,8 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
         common += ["--test-set", item]
     wall0 = time.time()
     results = {}
-    for scene, extra in (("shear", ["--stress", ",".join(map(str, cfg["stresses_kpa"]))]), ("collapse", [])):
+    shear = ["--stress", ",".join(map(str, cfg["stresses_kpa"])), "--speed", str(cfg["speed_m_s"])]
+    for scene, extra in (("shear", shear), ("collapse", [])):
         with open(folder / f"{scene}.log", "w") as log:
             code, out = run_process([sys.executable, str(ROOT / f"scripts/{scene}.py"), *common, *extra],
                                     lambda line: log.write(line))
