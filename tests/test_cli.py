@@ -95,7 +95,7 @@ def test_a_broken_run_folder_is_refused_in_one_line(tmp_path, capsys, damage, co
     in one line with exit 2, no traceback, and writes nothing."""
     import shutil
     run = tmp_path / "run"
-    kept = ROOT / "results/comparison/runs/clay-quick-prescribed-b933b74f"
+    kept = ROOT / "tests/data/kept_run"
     shutil.copytree(kept, run)
     if damage == "no summary":
         (run / "summary.json").unlink()

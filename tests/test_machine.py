@@ -98,7 +98,7 @@ def test_a_calibrated_preset_runs_the_calibrated_machine_and_the_others_keep_the
         assert p["sleeve"]["stiffness"] == tool["sleeve.stiffness"]
         assert p["awake_mm"] == [60.0, 120.0] and p["preset"]["holes"] == 8
     # a preset without `machine` or `awake` plans the run it planned before they existed (a kept run's id)
-    kept = ROOT / "results/comparison/runs/clay-quick-prescribed-b933b74f/config.json"
+    kept = ROOT / "tests/data/kept_run/config.json"
     assert plan("clay", "quick")["id"] == json.loads(kept.read_text())["id"]
 
 
