@@ -95,6 +95,9 @@ def render() -> str:
            *table(SLEEVE_FIELDS, {"value": disk["sleeve"]}, disk.get("sleeve_source", {})), "",
            "## `presets.toml`: run presets (`--preset NAME`)", "",
            *table({**PRESET_FIELDS, **PRESET_OPTIONAL}, presets), "",
+           "The main job's candidates (`studies/preset_candidates.toml`, judged in results/bench/README.md) are "
+           "presets too: " + ", ".join(f"`{n}`" for n in read_toml(ROOT / "configs/studies/preset_candidates.toml"))
+           + ".", "",
            "## `machine.toml`: the machine calibrated on clay (written by `./holes calibrate-machine`)", "",
            "A preset's `machine` names a section; its values replace `disk.toml`'s in that preset's runs.", "",
            *machine_rows(), "",
@@ -129,7 +132,8 @@ def check_configs():
     from analysis.core.soil_config import load_soil, table2_row
     disk = load_disk(ROOT / "configs/disk.toml")
     load_sleeve(ROOT / "configs/disk.toml", disk)
-    for name in read_toml(ROOT / "configs/presets.toml"):
+    from analysis.core.config import preset_names
+    for name in preset_names():
         load_resolution(load_preset(name).resolution)
     for name in read_toml(ROOT / "configs/resolutions.toml"):
         load_resolution(name)

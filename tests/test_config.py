@@ -129,10 +129,9 @@ def test_every_graded_preset_keeps_its_tools_in_the_fine_zone():
     radii of fine grains beyond it (configs/presets.toml, resolutions.toml, machine.toml); the graded study's
     shallower zone (configs/studies/graded.toml) is a study's question, not a preset."""
     from analysis.core.config import load_preset, load_resolution
-    from analysis.core.schema import read_toml
     from analysis.core.run_spec import plan
-    graded = [name for name in read_toml(ROOT / "configs/presets.toml")
-              if load_resolution(load_preset(name).resolution).graded]
+    from analysis.core.config import preset_names
+    graded = [name for name in preset_names() if load_resolution(load_preset(name).resolution).graded]
     assert {"graded", "validation_graded"} <= set(graded)
     for name in graded:
         p = plan("clay", name)

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from analysis.core.schema import (ConfigError, Field, as_dict, check_sources, check_table, positive, read_toml,
+from analysis.core.schema import (ROOT, ConfigError, Field, as_dict, check_sources, check_table, positive, read_toml,
                                   split_sections)
 
 
@@ -216,10 +216,23 @@ def named_section(what: str, name: str, path, schema: dict, optional: dict | Non
     return check_table(f"{path}: {name}", data[name], schema, optional)
 
 
-def load_preset(name: str, path="configs/presets.toml") -> Preset:
+PRESETS = ROOT / "configs/presets.toml"                               # a user's presets
+CANDIDATES = ROOT / "configs/studies/preset_candidates.toml"          # the main job's candidates, judged and kept
+
+
+def preset_names() -> dict:
+    """Every preset's name -> the file it is in: a user's presets first, then the candidates."""
+    return {**{n: CANDIDATES for n in read_toml(CANDIDATES)}, **{n: PRESETS for n in read_toml(PRESETS)}}
+
+
+def load_preset(name: str, path=None) -> Preset:
+    """The checked preset `name`, from `path`, or else from configs/presets.toml or the candidates' file."""
+    if path is None:
+        path = preset_names().get(name, PRESETS)
     data = read_toml(path)
     if name not in data:
-        raise ConfigError(f"preset = {name!r}: allowed {', '.join(data)}")
+        shown = ", ".join(data)
+        raise ConfigError(f"preset = {name!r}: allowed {shown} (or a candidate of {CANDIDATES.relative_to(ROOT)})")
     table = dict(data[name])
     extra = {k: table.pop(k) for k in PRESET_OPTIONAL if k in table}
     v = check_table(f"{path}: {name}", table, PRESET_FIELDS)

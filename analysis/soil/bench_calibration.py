@@ -33,7 +33,8 @@ def load_config(path: Path = CONFIG) -> dict:
     """The calibration's settings and its parameters' prior ranges, checked."""
     cfg = tomllib.loads(Path(path).read_text())
     bench, bounds = cfg.get("bench", {}), cfg.get("bounds", {})
-    need = {"resolution", "size_mm", "stresses_kpa", "speed_m_s", "calibration_seed", "check_seeds", "samples", "iterations", "workers"}
+    need = {"resolution", "size_mm", "stresses_kpa", "speed_m_s", "calibration_seed", "check_seeds", "samples",
+            "iterations", "workers"}
     if need - set(bench):
         raise ConfigError(f"{path}: [bench] lacks {', '.join(sorted(need - set(bench)))}")
     for name, rng in bounds.items():
