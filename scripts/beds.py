@@ -256,7 +256,8 @@ def bed_arguments(description: str, default_size: str, prog: str = "holes bed") 
     """The options every scene takes to name its bed."""
     p = CommandLine(prog=prog, description=description)
     p.add_argument("--soil", default="clay", help="clay | loam | sand, or a soil config's path (default clay)")
-    p.add_argument("--resolution", default="default", help="grain sizes of configs/resolutions.toml (default default)")
+    p.add_argument("--resolution", default="default", help="grain size: r3 r4 r5 r6 r8 (radius in mm) or a section of "
+                   "configs/resolutions.toml (default: default, r = 4 mm)")
     p.add_argument("--size", default=default_size, help="bed length,width,depth in mm")
     p.add_argument("--seed", type=option("--seed", SEED), default=1, help="packing seed, >= 0 (default 1)")
     p.add_argument("--lateral", default="walls", help="the bed's sides: " + " | ".join(LATERAL))

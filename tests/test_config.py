@@ -197,3 +197,16 @@ def test_the_parameter_page_is_not_written_from_an_invalid_config(tmp_path, monk
     monkeypatch.setattr(params_doc, "PATH", page)
     assert cli.main(["params"]) == 2
     assert "N = 0" in capsys.readouterr().err and page.read_text() == before
+
+
+def test_a_resolution_by_its_grain_radius_is_the_same_resolution_and_the_same_run():
+    """r6 and medium name one resolution: the same grains, the run planned with either has one id (kept runs and
+    beds keep their keys); an unknown name lists both kinds."""
+    from analysis.core.config import load_resolution
+    from analysis.core.run_spec import plan
+    assert load_resolution("r6") == load_resolution("medium") and load_resolution("r6").radius == 0.006
+    for alias, name in (("r8", "coarse"), ("r5", "quick"), ("r4", "default"), ("r3", "fine")):
+        assert load_resolution(alias).name == name and load_resolution(alias).radius == float(alias[1:]) / 1000
+    assert plan("clay", "quick", resolution="r6")["id"] == plan("clay", "quick", resolution="medium")["id"]
+    with pytest.raises(ConfigError, match=r"allowed r3, r4, r5, r6, r8 \(grain radius in mm\) or quick"):
+        load_resolution("r7")

@@ -269,8 +269,8 @@ def preset_with(preset: Preset, changes: dict) -> Preset:
     """The preset with some fields replaced (`--width`, `--resolution`, ...), checked as the presets file is."""
     import dataclasses
     checked = {k: PRESET_FIELDS[k].check(f"run.{k}", v) for k, v in changes.items()}
-    if "resolution" in checked:
-        load_resolution(checked["resolution"])
+    if "resolution" in checked:                # by either name; the run holds the section's
+        checked["resolution"] = load_resolution(checked["resolution"]).name
     if "lateral" in checked:
         check_lateral(checked["lateral"], "run.lateral")
     return dataclasses.replace(preset, **checked)
@@ -364,8 +364,11 @@ RESOLUTION_FIELDS = {
     "fine_width": Field(0.0, 1.0, unit="m", meaning="graded bed: width of the fine zone across the strip, centred on "
                         "the punches' path"),
     "fine_depth": Field(0.0, 0.5, unit="m", meaning="graded bed: depth of the fine zone below the surface"),
+    "also": Field(kind=str, meaning="the resolution's other name, by its grain radius (r6: r = 6 mm); either name "
+                  "runs the same beds and runs (their keys and ids use the section's name)"),
 }
 GRADED = {"coarse_radius": 0.0, "fine_width": 0.0, "fine_depth": 0.0}   # absent: a bed of one size
+OPTIONAL_RESOLUTION = {**GRADED, "also": ""}
 
 
 @dataclass(frozen=True)
@@ -379,6 +382,7 @@ class Resolution:
     coarse_radius: float = 0.0
     fine_width: float = 0.0
     fine_depth: float = 0.0
+    also: str = ""
 
     @property
     def graded(self) -> bool:
@@ -395,8 +399,23 @@ class Resolution:
         return (width - w) / 2, (width + w) / 2
 
 
+def resolution_name(name: str, path="configs/resolutions.toml") -> str:
+    """The section a resolution's name or its other name (`also`, by grain radius: r6) stands for."""
+    sections = read_toml(path)
+    if name in sections:
+        return name
+    named = [n for n, t in sections.items() if t.get("also") == name]
+    return named[0] if named else name
+
+
 def load_resolution(name: str, path="configs/resolutions.toml") -> Resolution:
-    res = Resolution(name, **named_section("resolution", name, path, RESOLUTION_FIELDS, GRADED))
+    name = resolution_name(name, path)
+    sections = read_toml(path)
+    if name not in sections:
+        by_radius = sorted((t["also"] for t in sections.values() if t.get("also")), key=lambda a: float(a[1:]))
+        raise ConfigError(f"resolution = {name!r}: allowed {', '.join(by_radius)} (grain radius in mm) or "
+                          f"{', '.join(sections)}")
+    res = Resolution(name, **named_section("resolution", name, path, RESOLUTION_FIELDS, OPTIONAL_RESOLUTION))
     smallest_coarse = res.coarse_radius * (1 - res.spread)
     if res.graded and not (smallest_coarse > res.radius * (1 + res.spread) and res.fine_width > 0 and res.fine_depth > 0):
         raise ConfigError(f"{path}: {name}: a graded bed needs coarse_radius (1 - spread) > radius (1 + spread) = "

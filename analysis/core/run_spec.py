@@ -213,7 +213,8 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
                    help="holes formed first and not measured (default: the preset's)")
     p.add_argument("--width", type=float, help="mm, overrides the preset")
     p.add_argument("--depth", type=float, help="mm, overrides the preset")
-    p.add_argument("--resolution", help="particle size (configs/resolutions.toml), overrides the preset")
+    p.add_argument("--resolution", help="grain size, r3 r4 r5 r6 r8 (radius in mm) or a section of configs/resolutions.toml; "
+                   "overrides the preset")
     p.add_argument("--dt-safety", type=float, help="time step / critical time step, overrides the preset")
     p.add_argument("--lateral", help="the strip's sides, walls | periodic, overrides the preset")
     p.add_argument("--mode", default="prescribed", help="prescribed | free: the disk turned at the set slip, or "
