@@ -48,7 +48,7 @@ def test_the_fit_recovers_the_penetration_and_spring_of_a_known_model():
         assert r.P == pytest.approx(P, abs=1.0) and r.stiffness == pytest.approx(k, abs=0.2)
         assert r.P_lo <= r.P <= r.P_hi and r.stiffness_lo <= r.stiffness <= r.stiffness_hi
     statuses = dict(zip(table.variant, table.status))
-    assert statuses["literal"] == "fitted"                          # P 91.6, k 2.1: inside the bracket
+    assert statuses["literal"] == "resolved"                        # P 91.6, k 2.1: inside the bracket, narrow
     assert statuses["surface"] == "extrapolated beyond the bracket"  # P 73.5: below it
 
 
@@ -134,3 +134,42 @@ def test_a_strip_whose_punches_turn_twice_is_a_new_run():
     assert plan("clay", "validation_surface")["punch_turns"] == 2
     assert "punch_turns" not in plan("clay", "quick", holes=5)            # lead-in + 5 = 6 holes, one turn
     assert plan("clay", "validation_surface")["id"] != "clay-validation_surface-prescribed-ed36d653"
+
+
+def packing_rows(points, packings=2, holes=8, packing_sd=1.5, hole_sd=2.0, seed=3):
+    """Holes of the made-up model of synthetic_rows on several packings per point: each packing shifts its holes'
+    L2_surface and h1 by its own offset (packing_sd), each hole scatters about it (hole_sd)."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for i, (P, k) in enumerate(points):
+        for s in range(packings):
+            off = rng.normal(0, packing_sd, 2)
+            for h in range(holes):
+                rows.append({"run": f"r{i}s{s}", "P": P, "stiffness": k, "hole": h + 1, "found": True,
+                             "L2_surface": 10 + 0.75 * P - 1.5 * k + off[0] + rng.normal(0, hole_sd),
+                             "h1": 20 - 4 * k + 0.02 * P + off[1] + rng.normal(0, hole_sd)})
+    return pd.DataFrame(rows)
+
+
+def test_the_fit_recovers_made_up_values_through_made_up_packing_scatter():
+    """Two packings of 8 holes at each of four points, the packings scattering as real ones do: the fit lands near the
+    made-up machine, its interval holds it, and the status is "resolved" (inside the design, intervals narrower than
+    it); with one packing per point and the same scatter the interval is wider."""
+    want = {"literal": 10 + 0.75 * 88 - 1.5 * 1.8, "surface": 10 + 0.75 * 88 - 1.5 * 1.8, "h1": 20 - 4 * 1.8 + 0.02 * 88}
+    design = [(80, 0.5), (80, 3.0), (95, 0.5), (95, 3.0)]
+    two = machine.fit(packing_rows(design), want, n_boot=400).set_index("variant").loc["surface"]
+    assert two.P == pytest.approx(88, abs=3) and two.stiffness == pytest.approx(1.8, abs=0.5)
+    assert two.P_lo <= 88 <= two.P_hi and two.stiffness_lo <= 1.8 <= two.stiffness_hi
+    assert two.status == "resolved" and two.packings_per_point == 2
+    one = machine.fit(packing_rows(design, packings=1, holes=16), want, n_boot=400).set_index("variant").loc["surface"]
+    assert one.packings_per_point == 1
+    for name in ("P", "stiffness"):
+        assert two[f"{name}_hi"] - two[f"{name}_lo"] > 0.5 * (one[f"{name}_hi"] - one[f"{name}_lo"])
+
+
+def test_a_fit_inside_the_design_with_an_interval_wider_than_it_is_not_resolved():
+    means = pd.DataFrame({"P": [80, 80, 95, 95], "stiffness": [0.5, 3.0, 0.5, 3.0]})
+    assert machine.status_of(88, 1.8, (85, 91), (1.0, 2.5), means) == "resolved"
+    assert machine.status_of(88, 1.8, (70, 100), (1.0, 2.5), means).startswith("inside the bracket, not resolved")
+    assert machine.status_of(78, 1.8, (75, 81), (1.0, 2.5), means) == "extrapolated beyond the bracket"
+    assert machine.status_of(88, -0.1, (85, 91), (-1, 0.5), means) == "not physical: a negative spring rate"

@@ -15,9 +15,10 @@ The fit reads clay's field means only (configs/field/table3.csv), never loam's o
     and "surface" (the field's L2 from the undisturbed surface, target 62.1 mm);
   - the spring rate to the field's h1 (13.5 mm).
 Over the run means, L2_surface = a0 + a1·P + a2·k and h1 = b0 + b1·P + b2·k (least squares; it needs two
-penetrations and two spring rates at least), then the two targets solved for (P, k). The interval resamples
-each run's holes (2,000 times) and fits again: within-run scatter only while each point has one packing.
-A value outside the bracketed range is flagged as extrapolated.
+penetrations and two spring rates at least), then the two targets solved for (P, k). The interval resamples each
+design point's packings and then their holes (2,000 times) and fits again: within-run scatter only where a point has
+one packing. A value outside the bracketed range is flagged as extrapolated; one inside it is "resolved" only when
+both intervals are narrower than the design's range.
 """
 from __future__ import annotations
 
@@ -123,40 +124,62 @@ def _solve(means: pd.DataFrame, want: dict, variant: str):
     return float(P), float(k), a, b
 
 
+def resample(found: pd.DataFrame, rng) -> pd.DataFrame:
+    """One bootstrap draw of the design's holes: at each design point its runs (packings) drawn with replacement,
+    then each drawn run's holes with replacement; so a point's interval carries the packings' scatter where it has
+    two or more, and the holes' alone where it has one."""
+    parts = []
+    for _, point in found.groupby(["P", "stiffness"]):
+        runs = [g for _, g in point.groupby("run")]
+        for j, i in enumerate(rng.integers(0, len(runs), len(runs))):
+            g = runs[i]
+            parts.append(g.iloc[rng.integers(0, len(g), len(g))].assign(run=f"{g.run.iloc[0]}#{j}"))
+    return pd.concat(parts)
+
+
+def run_means(found: pd.DataFrame) -> pd.DataFrame:
+    return found.groupby("run").agg(P=("P", "first"), stiffness=("stiffness", "first"),
+                                    L2_surface=("L2_surface", "mean"), h1=("h1", "mean")).reset_index()
+
+
+def status_of(P: float, k: float, interval_P, interval_k, means: pd.DataFrame) -> str:
+    """"resolved": inside the design's range and both 95 % intervals narrower than it; else why not."""
+    if k < 0:
+        return "not physical: a negative spring rate"
+    span_P, span_k = means.P.max() - means.P.min(), means.stiffness.max() - means.stiffness.min()
+    if not (means.P.min() <= P <= means.P.max() and means.stiffness.min() <= k <= means.stiffness.max()):
+        return "extrapolated beyond the bracket"
+    if interval_P[1] - interval_P[0] < span_P and interval_k[1] - interval_k[0] < span_k:
+        return "resolved"
+    return "inside the bracket, not resolved: an interval wider than the design's range"
+
+
 def fit(rows: pd.DataFrame, want: dict, n_boot: int = 2000, seed: int = 0) -> pd.DataFrame:
-    """Per variant: the fitted P and spring rate with 95 % intervals (holes resampled within each run), the
-    two linear models' coefficients and residual SDs, and a status ("fitted", "extrapolated" or why not)."""
+    """Per variant: the fitted P and spring rate with 95 % intervals (a bootstrap over each design point's packings
+    and their holes, `resample`), the two linear models' coefficients and residual SDs, and a status (`status_of`)."""
     found = rows[rows.found.astype(bool)]
-    means = found.groupby("run").agg(P=("P", "first"), stiffness=("stiffness", "first"),
-                                     L2_surface=("L2_surface", "mean"), h1=("h1", "mean")).reset_index()
+    means = run_means(found)
     out = []
     for variant, meaning in VARIANTS.items():
         row = {"variant": variant, "meaning": meaning, "target_L2_surface": want[variant], "target_h1": want["h1"],
-               "runs": len(means), "holes": len(found)}
+               "runs": len(means), "holes": len(found),
+               "packings_per_point": int(found.groupby(["P", "stiffness"]).run.nunique().min()) if len(found) else 0}
         if means.P.nunique() < 2 or means.stiffness.nunique() < 2 or len(means) < 3:
             out.append({**row, "status": f"not determined: {means.P.nunique()} penetration(s) and "
                         f"{means.stiffness.nunique()} spring rate(s) in {len(means)} run(s); it needs 2, 2 and 3"})
             continue
         P, k, a, b = _solve(means, want, variant)
         rng = np.random.default_rng(seed)
-        boot = []
-        groups = [g for _, g in found.groupby("run")]
-        for _ in range(n_boot):
-            res = pd.concat([g.iloc[rng.integers(0, len(g), len(g))] for g in groups])
-            m = res.groupby("run").agg(P=("P", "first"), stiffness=("stiffness", "first"),
-                                       L2_surface=("L2_surface", "mean"), h1=("h1", "mean"))
-            boot.append(_solve(m, want, variant)[:2])
-        boot = np.array(boot)
-        inside = means.P.min() <= P <= means.P.max() and means.stiffness.min() <= k <= means.stiffness.max()
+        boot = np.array([_solve(run_means(resample(found, rng)), want, variant)[:2] for _ in range(n_boot)])
+        interval_P = (np.nanpercentile(boot[:, 0], 2.5), np.nanpercentile(boot[:, 0], 97.5))
+        interval_k = (np.nanpercentile(boot[:, 1], 2.5), np.nanpercentile(boot[:, 1], 97.5))
         X = np.column_stack([np.ones(len(means)), means.P, means.stiffness])
-        out.append({**row, "P": P, "P_lo": np.nanpercentile(boot[:, 0], 2.5), "P_hi": np.nanpercentile(boot[:, 0], 97.5),
-                    "stiffness": k, "stiffness_lo": np.nanpercentile(boot[:, 1], 2.5),
-                    "stiffness_hi": np.nanpercentile(boot[:, 1], 97.5),
+        out.append({**row, "P": P, "P_lo": interval_P[0], "P_hi": interval_P[1],
+                    "stiffness": k, "stiffness_lo": interval_k[0], "stiffness_hi": interval_k[1],
                     "dL2s_dP": a[1], "dL2s_dk": a[2], "dh1_dP": b[1], "dh1_dk": b[2],
                     "L2s_resid_sd": float(np.std(means.L2_surface - X @ a, ddof=0)),
                     "h1_resid_sd": float(np.std(means.h1 - X @ b, ddof=0)),
-                    "status": "fitted" if inside and k >= 0 else
-                    ("not physical: a negative spring rate" if k < 0 else "extrapolated beyond the bracket")})
+                    "status": status_of(P, k, interval_P, interval_k, means)})
     return pd.DataFrame(out)
 
 
