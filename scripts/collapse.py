@@ -6,7 +6,7 @@ A settled bed's grains stand in a box (a back wall, two smooth side walls, a gat
 RUNOUT_LENGTHS × the column's length beyond the gate). Every contact is a new one, bonded at the soil's
 `new_contact_cohesion` of the intact bonds' strength: the column is soil that a tool has broken and that has
 been pressed together again, what falls back into a hole. The gate is taken away and the column slumps under
-gravity until no grain moves faster than STILL_SPEED. The slope angle is the steepest line fitted to the
+gravity until all but a few grains (STILL_SHARE) move slower than STILL_SPEED. The slope angle is the steepest line fitted to the
 surface's height profile between SLOPE_BAND of the final height (the surface: the highest grain top per bin of
 one grain diameter along the run-out), the front the farthest a grain got. Writes
 results/soils/collapse/<bed key>.json (or --out) and prints it as a JSON line.
@@ -26,7 +26,8 @@ from analysis.core.io import atomic_write  # noqa: E402
 from analysis.soil.collapse import slope_angle  # noqa: E402
 
 RUNOUT_LENGTHS = 2.5           # the floor beyond the gate, in column lengths
-STILL_SPEED = 0.01             # m/s: the collapse is over when no grain moves faster
+STILL_SPEED = 0.01             # m/s: the collapse is over when STILL_SHARE of the grains move slower
+STILL_SHARE = 0.99             # (a few grains rolling away on the floor do not hold the test open)
 MIN_TIME = 0.3                 # s before the stillness is checked (the gate's opening takes a few ms)
 MAX_TIME = 3.0                 # s: a column still moving by then is reported as such, never as a slope
 
@@ -76,13 +77,15 @@ def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None
         if not np.all(np.isfinite(v)) or v.max() > 20.0:
             raise RuntimeError(f"collapse: a grain moves at {np.nanmax(v):.2f} m/s at t = {O.time:.3f} s (unstable)")
         front = max(O.bodies[i].state.pos[0] for i in grains)
-        log(f"collapse: t {O.time:.2f} s  fastest grain {v.max():.3f} m/s  front {1000 * front:.0f} mm  "
-            f"wall {time.time() - wall0:.0f} s")
-        if O.time > MIN_TIME and v.max() < STILL_SPEED:
+        moving = float(np.quantile(v, STILL_SHARE))
+        log(f"collapse: t {O.time:.2f} s  {100 * STILL_SHARE:g} % of the grains under {moving:.3f} m/s  front "
+            f"{1000 * front:.0f} mm  wall {time.time() - wall0:.0f} s")
+        if O.time > MIN_TIME and moving < STILL_SPEED:
             still = True
             break
     if not still:
-        raise RuntimeError(f"collapse: grains still move at {v.max():.3f} m/s after {MAX_TIME} s")
+        raise RuntimeError(f"collapse: {100 * (1 - STILL_SHARE):g} % of the grains still move faster than {moving:.3f} m/s "
+                           f"after {MAX_TIME} s")
     pos = np.array([O.bodies[i].state.pos for i in grains])
     rad = np.array([O.bodies[i].shape.radius for i in grains])
     edges = np.arange(0.0, far + 2 * r, 2 * r)

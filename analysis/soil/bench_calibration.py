@@ -26,7 +26,7 @@ CONFIG = ROOT / "configs/bench_calibration.toml"
 TARGETS = ROOT / "configs/field/soil_targets.csv"
 BENCH_DIR = ROOT / "results/calibration/bench"
 RESPONSES = ("c_kpa", "phi_deg", "collapse_deg")
-SCENES_VERSION = 1     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
+SCENES_VERSION = 2     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
 
 
 def load_config(path: Path = CONFIG) -> dict:
