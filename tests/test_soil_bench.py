@@ -111,7 +111,7 @@ def test_a_cohesionless_shear_box_gives_a_friction_angle_that_grows_with_the_gra
     fits = {}
     for mu in (15.0, 35.0):
         out = tmp_path / f"mu{mu:g}"
-        assert shear.main([*SMALL, "--bed-dir", str(tmp_path / "beds"), "--out", str(out), "--stress", "25,75",
+        assert shear.main([*SMALL, "--bed-dir", str(tmp_path / "beds"), "--out", str(out), "--stress", "25,75", "--speed", "0.1",
                            "--test-set", f"friction_deg={mu}", "--test-set", "normal_cohesion=0",
                            "--test-set", "shear_cohesion=0"]) == 0
         fits[mu] = json.loads(next(out.glob("*.json")).read_text())
