@@ -144,6 +144,7 @@ def cmd_calibrate_bench(args) -> int:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1
     bench.report()
+    bench.write_posterior(args.soil, post, check, f"./holes calibrate --soil {args.soil} --bench")
     print(json.dumps({"posterior": post["mean"], "interval": post["interval"], "check": check}))
     return 0
 

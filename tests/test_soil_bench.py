@@ -83,6 +83,16 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
         assert math.isfinite(result[r]["mean"]) and result[r]["sd"] > 0
         assert isinstance(result[r]["every_packing_inside"], bool)
     assert [p.name for p in bench.report(tmp_path)] == ["posterior.png", "responses.png"]
+    config = tmp_path / "clay.toml"
+    config.write_text((bench.ROOT / "configs/soils/clay.toml").read_text())
+    for _ in range(2):                                       # written again, it replaces its own table
+        bench.write_posterior("clay", post, result, "test", config)
+    from analysis.core.schema import read_toml
+    from analysis.core.soil_config import load_soil
+    table = read_toml(config)["bench_posterior"]
+    assert config.read_text().count("[bench_posterior]") == 1 and load_soil(config) == load_soil("clay")
+    assert table["friction_deg"]["mean"] == pytest.approx(post["mean"]["friction_deg"], rel=1e-3)
+    assert table["status"].startswith(("within every target", "outside its target"))
 
 
 def test_an_override_out_of_range_stops_the_collapse_test_before_any_bed(capsys):

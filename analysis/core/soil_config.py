@@ -92,7 +92,7 @@ def load_soil(name_or_path) -> Soil:
         if str(name_or_path) not in SOILS:
             raise ConfigError(f"soil = {name_or_path!r}: allowed {', '.join(SOILS)} or a path to a soil .toml")
         path = ROOT / "configs/soils" / f"{name_or_path}.toml"
-    data = split_sections(path, read_toml(path), {"soil", "source"})
+    data = split_sections(path, read_toml(path), {"soil", "source", "bench_posterior"})   # the last: see bench_calibration
     check_sources(path, data.get("source", {}), SOIL_FIELDS)
     return soil_from_dict(path.stem, data.get("soil", {}), f"{path}: soil")
 

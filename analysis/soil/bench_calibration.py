@@ -257,3 +257,41 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
     fig.savefig(paths[1], dpi=110)
     plt.close(fig)
     return paths
+
+
+POSTERIOR_HEAD = "# GrainLearning's posterior on the bench tests"
+
+
+def posterior_block(soil: str, post: dict, check_result: dict, command: str) -> str:
+    """The `[bench_posterior]` table a soil's config carries: each parameter's posterior mean and 95 % interval,
+    their correlations, the bench responses of the mean over the check packings, and whether every packing's
+    response lies inside every target's range (status)."""
+    inside = all(v["every_packing_inside"] for v in check_result.values())
+    missed = [r for r, v in check_result.items() if not v["every_packing_inside"]]
+    status = "within every target on every check packing" if inside else "outside its target on a check packing: " + \
+        ", ".join(missed)
+    lines = [POSTERIOR_HEAD + f" (`{command}`), results/calibration/bench/{soil}-posterior.json; the runs of the",
+             "# holes use [soil] above until it is adopted.", "[bench_posterior]", f'status = "{status}"']
+    for n in post["names"]:
+        lo, hi = post["interval"][n]
+        lines.append(f"{n} = {{ mean = {post['mean'][n]:.4g}, lo = {lo:.4g}, hi = {hi:.4g} }}")
+    names = post["names"]
+    pairs = [f"{a}__{b} = {post['correlation'][a][b]:.2f}" for i, a in enumerate(names) for b in names[i + 1:]]
+    lines.append("correlation = { " + ", ".join(pairs) + " }")
+    for r, v in check_result.items():
+        lines.append(f"{r} = {{ mean = {v['mean']:.3g}, sd = {v['sd']:.2g}, target = [{v['target'][0]:g}, "
+                     f"{v['target'][1]:g}] }}")
+    return "\n".join(lines) + "\n"
+
+
+def write_posterior(soil: str, post: dict, check_result: dict, command: str, path: Path | None = None) -> Path:
+    """Put (or replace) the soil config's `[bench_posterior]` table, keeping the rest of the file as it is; the file
+    must still load."""
+    from analysis.core.soil_config import load_soil
+    path = path or ROOT / "configs/soils" / f"{soil}.toml"
+    text = path.read_text()
+    if POSTERIOR_HEAD in text:
+        text = text[:text.index(POSTERIOR_HEAD)].rstrip("\n") + "\n"
+    atomic_write(path, text + "\n" + posterior_block(soil, post, check_result, command))
+    load_soil(path)
+    return path
