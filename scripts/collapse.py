@@ -7,8 +7,9 @@ RUNOUT_LENGTHS × the column's length beyond the gate). Every contact is a new o
 `new_contact_cohesion` of the intact bonds' strength: the column is soil that a tool has broken and that has
 been pressed together again, what falls back into a hole. The gate is taken away and the column slumps under
 gravity until all but a few grains (STILL_SHARE) move slower than STILL_SPEED. The slope angle is the steepest line fitted to the
-surface's height profile between SLOPE_BAND of the final height (the surface: the highest grain top per bin of
-one grain diameter along the run-out), the front the farthest a grain got. Writes
+surface's height profile between where it falls below 80 % and below 20 % of the crest's height, downhill from
+the crest (analysis/soil/collapse.py; the surface: the highest grain top per bin of one grain diameter along the
+run-out), the front the farthest a grain got. Writes
 results/soils/collapse/<bed key>.json (or --out) and prints it as a JSON line.
 """
 from __future__ import annotations
@@ -94,7 +95,7 @@ def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None
     np.maximum.at(top, np.clip(which, 0, len(top) - 1), pos[:, 2] + rad)
     slope = slope_angle((edges[:-1] + edges[1:]) / 2, top)
     return {"bed": meta["key"], "soil": soil.name, "radius_m": r, "size_m": [L, W, D],
-            "new_contact_cohesion": soil.new_contact_cohesion, "angle_deg": slope["angle_deg"], "slope_bins": slope["bins"],
+            "new_contact_cohesion": soil.new_contact_cohesion, "angle_deg": slope["angle_deg"], "slope_run_m": slope["run_m"],
             "height_ratio": slope["height_m"] / top0, "runout_mm": 1000 * (float(np.max(pos[:, 0] + rad)) - L),
             "particles": len(grains), "steps": int(O.iter), "dt": O.dt, "time_s": O.time, "wall_s": time.time() - wall0,
             "threads": threads, "profile_mm": [[round(1000 * a, 1), round(1000 * b, 1)] for a, b in zip(edges[:-1], top)]}

@@ -52,8 +52,11 @@ def test_a_finished_evaluation_is_read_back_never_run_again(tmp_path, monkeypatc
     folder = tmp_path / "clay" / bench.evaluation_id("clay", 2, params, cfg)
     folder.mkdir(parents=True)
     (folder / "responses.json").write_text(json.dumps({"c_kpa": 1.0}))
+    heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]       # 45° from x = 100 mm
+    (folder / "bed.json").write_text(json.dumps({"profile_mm": heap}))
     monkeypatch.setattr(bench, "run_process", lambda *a: pytest.fail("a finished evaluation ran again"))
-    assert bench.evaluate("clay", 2, params, cfg, tmp_path) == {"c_kpa": 1.0}
+    again = bench.evaluate("clay", 2, params, cfg, tmp_path)
+    assert again["c_kpa"] == 1.0 and again["collapse_deg"] == pytest.approx(45.0, abs=1.0)
     assert bench.evaluation_id("clay", 2, {**params, "friction_deg": 25.000001}, cfg) == folder.name
     assert bench.evaluation_id("clay", 3, params, cfg) != folder.name
 
@@ -102,12 +105,18 @@ def test_an_override_out_of_range_stops_the_collapse_test_before_any_bed(capsys)
 
 
 def test_the_collapse_slope_reads_a_made_up_heap():
+    """Made-up heaps of known slope read within a degree on 2 mm bins, within a bin's worth on the scene's 12 mm ones;
+    a face left standing reads steep, and a clump lying loose beyond its toe does not make it shallow."""
     from analysis.soil.collapse import slope_angle
+    for step, tol in ((0.002, 1.0), (0.012, 6.0)):
+        x = np.arange(0, 0.4, step)
+        for angle in (25.0, 40.0, 60.0):
+            h = np.clip(0.1 - (x - 0.1) * math.tan(math.radians(angle)), 0, 0.1)
+            assert slope_angle(x, h)["angle_deg"] == pytest.approx(angle, abs=tol)
     x = np.arange(0, 0.4, 0.012)
-    for angle in (25.0, 40.0, 60.0):
-        h = np.clip(0.1 - (x - 0.1) * math.tan(math.radians(angle)), 0, 0.1)
-        assert slope_angle(x, h)["angle_deg"] == pytest.approx(angle, abs=1.0)
-    assert slope_angle(x, np.where(x < 0.15, 0.1, 0.0))["angle_deg"] == 90.0
+    face = np.where(x < 0.15, 0.1, 0.0)
+    assert slope_angle(x, face)["angle_deg"] > 75
+    assert slope_angle(x, face + np.where((x > 0.17) & (x < 0.2), 0.04, 0.0))["angle_deg"] > 75
 
 
 SMALL = ["--soil", "sand", "--resolution", "medium", "--size", "100,100,60", "--threads", "1"]

@@ -78,7 +78,7 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
     folder = Path(out_dir) / soil / evaluation_id(soil, seed, params, cfg)
     done = folder / "responses.json"
     if done.exists():
-        return json.loads(done.read_text())
+        return with_collapse_angle(json.loads(done.read_text()), folder)
     folder.mkdir(parents=True, exist_ok=True)
     common = ["--soil", soil, "--resolution", cfg["resolution"], "--size", ",".join(map(str, cfg["size_mm"])),
               "--seed", str(seed), "--threads", "1", "--out", str(folder)]
@@ -96,11 +96,21 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
             raise RuntimeError(f"{soil} {folder.name}: scripts/{scene}.py exited {code}:\n{tail}")
         results[scene] = json.loads(out.strip().splitlines()[-1])
     row = {"id": folder.name, "soil": soil, "seed": seed, **params, "c_kpa": results["shear"]["c_kpa"],
-           "phi_deg": results["shear"]["phi_deg"], "collapse_deg": results["collapse"]["angle_deg"],
-           "collapse_runout_mm": results["collapse"]["runout_mm"],
+           "phi_deg": results["shear"]["phi_deg"], "collapse_runout_mm": results["collapse"]["runout_mm"],
            "tau_peak_kpa": _shear_peaks(folder), "wall_s": time.time() - wall0}
     atomic_write(done, json.dumps(row, indent=1))
-    return row
+    return with_collapse_angle(row, folder)
+
+
+def with_collapse_angle(row: dict, folder: Path) -> dict:
+    """The evaluation's collapse slope, measured from its stored profile (analysis/soil/collapse.py) each time it is
+    read, so a finished evaluation is measured the way the current code measures."""
+    from analysis.soil.collapse import profile_angle
+    for path in folder.glob("*.json"):
+        data = json.loads(path.read_text())
+        if "profile_mm" in data:
+            return {**row, "collapse_deg": profile_angle(data["profile_mm"])}
+    raise RuntimeError(f"{folder}: no collapse profile")
 
 
 def _shear_peaks(folder: Path) -> list[float]:

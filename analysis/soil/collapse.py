@@ -4,26 +4,34 @@ from __future__ import annotations
 
 import math
 
-SLOPE_BAND = (0.2, 0.8)        # the part of the final height the slope is fitted over
+SLOPE_BAND = (0.2, 0.8)        # the slope runs between where the surface falls below these shares of its crest
 
 
 def slope_angle(x, top, band=SLOPE_BAND) -> dict:
-    """The surface's slope from its height profile (`x` bin centres, `top` their heights, m): a least-squares line
-    through the bins whose height lies inside `band` of the highest, downhill from the crest; a face steeper than
-    one bin reads as 90°.
+    """The surface's slope from its height profile (`x` bin centres, `top` their heights, m): going downhill from the
+    crest (the highest bin), the first bins whose height falls below band[1] and below band[0] of the crest's; the
+    angle is that drop over the distance between them, at least one bin (so a face that stands vertical reads about
+    atan(0.6 H / bin), and a grain or clump lying loose beyond the toe does not count).
 
     >>> import numpy as np
-    >>> x = np.arange(0, 0.3, 0.01); h = np.clip(0.1 - (x - 0.05) * np.tan(np.radians(35)), 0, 0.1)
-    >>> round(slope_angle(x, h)["angle_deg"], 1)
+    >>> x = np.arange(0, 0.3, 0.002); h = np.clip(0.1 - (x - 0.05) * np.tan(np.radians(35)), 0, 0.1)
+    >>> round(slope_angle(x, h)["angle_deg"], 0)
     35.0
     """
     import numpy as np
     x, top = np.asarray(x, float), np.asarray(top, float)
     crest = int(np.argmax(top))
     height = float(top[crest])
-    x, top = x[crest:], top[crest:]
-    inside = (top >= band[0] * height) & (top <= band[1] * height)
-    if inside.sum() < 2:
-        return {"angle_deg": 90.0, "height_m": height, "bins": int(inside.sum())}
-    slope = np.polyfit(x[inside], top[inside], 1)[0]
-    return {"angle_deg": float(math.degrees(math.atan(max(0.0, -slope)))), "height_m": height, "bins": int(inside.sum())}
+    below = {b: crest + int(np.argmax(top[crest:] < b * height)) for b in band}
+    if not np.any(top[crest:] < band[0] * height):
+        return {"angle_deg": float("nan"), "height_m": height, "run_m": float("nan")}
+    bin_m = float(np.median(np.diff(x))) if len(x) > 1 else 1.0
+    run = max(float(x[below[band[0]]] - x[below[band[1]]]), bin_m)
+    return {"angle_deg": math.degrees(math.atan2((band[1] - band[0]) * height, run)), "height_m": height, "run_m": run}
+
+
+def profile_angle(profile_mm) -> float:
+    """The slope (°) of a collapse test's stored profile ([[x mm, top mm], ...], scripts/collapse.py)."""
+    import numpy as np
+    p = np.asarray(profile_mm, float)
+    return slope_angle(p[:, 0] / 1000, p[:, 1] / 1000)["angle_deg"]
