@@ -268,6 +268,25 @@ def bed_arguments(description: str, default_size: str, prog: str = "holes bed") 
     return p
 
 
+def bench_start(bed_path: Path, soil_name: str, overrides: dict | None, threads: int, quiet: bool):
+    """A bench test's first steps on a settled bed: the soil with the test's overrides, the bed's metadata, YADE
+    booted on `threads` with an empty scene, the bed's grains (pos, radius; r their mean radius, top the highest
+    grain's top, m) and a progress logger."""
+    soil = soil_with(load_soil(soil_name), overrides or {})
+    meta = load_meta(bed_path)
+    log = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    from scripts.yadeboot import boot
+    boot(threads)
+    import numpy as np
+    from yade import O
+    O.reset()
+    data = np.load(bed_path)
+    from types import SimpleNamespace
+    grains = SimpleNamespace(pos=data["pos"], radius=data["radius"], r=float(np.mean(data["radius"])),
+                             top=float(np.max(data["pos"][:, 2] + data["radius"])))
+    return soil, meta, grains, log
+
+
 def add_test_set(p: argparse.ArgumentParser):
     """A bench test's overrides of the soil's contact parameters that leave its bed as configured: the packing is
     prepared one way for every test of a calibration, and only the tested contact law varies."""

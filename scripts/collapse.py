@@ -35,30 +35,22 @@ MAX_TIME = 3.0                 # s: a column still moving by then is reported as
 
 def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None = None, quiet: bool = False) -> dict:
     """Let the bed's column of disturbed soil collapse; return its slope, height and run-out."""
-    soil = soil_with(load_soil(soil_name), overrides or {})
-    from scripts.beds import load_meta
-    meta = load_meta(bed_path)
-    L, W, D = meta["size_m"]
-    log = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
-
-    from scripts.yadeboot import boot
-    boot(threads)
+    from scripts.beds import bench_start
+    soil, meta, data, log = bench_start(bed_path, soil_name, overrides, threads, quiet)
     import numpy as np
     from yade import O, utils
     from scripts import soil as part
 
     wall0 = time.time()
-    O.reset()
-    data = np.load(bed_path)
-    r = float(np.mean(data["radius"]))
-    top0 = float(np.max(data["pos"][:, 2] + data["radius"]))
+    L, W, D = meta["size_m"]
+    r, top0 = data.r, data.top
     disturbed = soil_with(soil, {"normal_cohesion": soil.new_contact_cohesion * soil.normal_cohesion,
                                  "shear_cohesion": soil.new_contact_cohesion * soil.shear_cohesion})
     mat = O.materials.append(part.soil_material(disturbed, density=meta["grain_density"], cohesive=True))
     smooth = O.materials.append(part.steel_material(soil, friction_deg=0.0))
     rough = O.materials.append(part.steel_material(soil, friction_deg=soil.friction_deg))   # soil on soil
     grains = list(O.bodies.append([utils.sphere(tuple(p), rr, material=mat)
-                                   for p, rr in zip(data["pos"], data["radius"])]))
+                                   for p, rr in zip(data.pos, data.radius)]))
     t, H = 0.02, top0 + 0.05
     far = L * (1 + RUNOUT_LENGTHS)
     O.bodies.append([

@@ -45,29 +45,21 @@ CHUNK = 50                     # steps between two records of the curve (0.09 mm
 def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, threads: int = 1,
         overrides: dict | None = None, quiet: bool = False) -> dict:
     """Consolidate the bed's sample under σn = stress_kpa, shear it, return its curve's summary."""
-    soil = soil_with(load_soil(soil_name), overrides or {})
-    from scripts.beds import load_meta
-    meta = load_meta(bed_path)
-    L, W, D = meta["size_m"]
-    log = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
-
-    from scripts.yadeboot import boot
-    boot(threads)
+    from scripts.beds import bench_start
+    soil, meta, data, log = bench_start(bed_path, soil_name, overrides, threads, quiet)
     import numpy as np
     from yade import O, utils
     from scripts import soil as part
 
     wall0 = time.time()
-    O.reset()
-    data = np.load(bed_path)
-    r = float(np.mean(data["radius"]))
-    top = float(np.max(data["pos"][:, 2] + data["radius"]))
+    L, W, D = meta["size_m"]
+    r, top = data.r, data.top
     mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=True))
     steel = O.materials.append(part.steel_material(soil, friction_deg=0.0))     # smooth: no wall friction wedges
     grains = list(O.bodies.append([utils.sphere(tuple(p), rr, material=mat)
-                                   for p, rr in zip(data["pos"], data["radius"])]))
+                                   for p, rr in zip(data.pos, data.radius)]))
     n_grains = len(grains)
-    plane, gap, t, height = D / 2, GAP * 2 * float(np.min(data["radius"])), FRAME_T, top + 0.1
+    plane, gap, t, height = D / 2, GAP * 2 * float(np.min(data.radius)), FRAME_T, top + 0.1
     lower = part.container(L, W, plane - gap / 2, steel, t=t)       # floor and walls up to the shear plane
     rim = SHEAR_STRAIN * L + 4 * r              # the lower half's rim beyond x = L: the upper half's soil rests on it
     lower.append(utils.box((L + 2 * t + rim / 2, W / 2, (plane - gap / 2) / 2), (rim / 2, W / 2 + t, (plane - gap / 2) / 2),
