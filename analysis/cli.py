@@ -24,7 +24,7 @@ def scene_batch_options(p, out_help: str):
     p.add_argument("--workers", type=option("--workers", WORKERS), help="runs at a time " + SHARE_HELP)
     p.add_argument("--threads", type=option("--threads", THREADS), help="YADE threads per run " + SHARE_HELP)
     p.add_argument("--runs-dir", type=folder("--runs-dir"), help="runs folder (default results/runs)")
-    p.add_argument("--bed-dir", type=folder("--bed-dir"), help="beds folder (default results/beds)")
+    p.add_argument("--bed-dir", type=folder("--bed-dir"), help="beds folder (default results/cache/beds)")
     p.add_argument("--out", type=folder("--out"), help=out_help)
 
 

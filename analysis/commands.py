@@ -9,6 +9,7 @@ from pathlib import Path
 
 from analysis.core.config import load_disk
 from analysis.core.schema import ROOT, ConfigError
+from analysis.core.bed_spec import BED_DIR
 
 
 def cmd_theory(args) -> int:
@@ -269,18 +270,18 @@ def cmd_bench(args) -> int:
             m = json.loads(path.read_text())
             if "travel_mm" not in m:                # a duck-beak run
                 continue
-            bed = Path(args.bed_dir or ROOT / "results/beds") / f"{m['bed']}.json"
+            bed = Path(args.bed_dir or BED_DIR) / f"{m['bed']}.json"
             rows.append({**run_cost(m, json.loads(bed.read_text()) if bed.exists() else None), "machine": machine()})
         return write_costs(rows, "run", "no finished runs in results/runs; make one with ./holes run")
     rows = []
-    for meta_path in sorted((ROOT / "results/beds").glob("*.json")):
+    for meta_path in sorted(BED_DIR.glob("*.json")):
         m = json.loads(meta_path.read_text())
         rows.append({"bed": m["key"], "soil": m["soil"], "resolution": m["resolution"], "radius_mm": 1000 * m["radius"],
                      "size_mm": "x".join(f"{1000 * s:.0f}" for s in m["size_m"]), "particles": m["particles"],
                      "steps": m["steps"], "wall_s": round(m["wall_s"], 1), "threads": m["threads"],
                      "particle_steps_per_s": round(m["particle_steps"] / m["wall_s"]),
                      "porosity": round(m["porosity"], 4), "machine": machine()})
-    return write_costs(rows, "bed", "no beds in results/beds; build one with ./holes bed")
+    return write_costs(rows, "bed", "no beds in results/cache/beds; build one with ./holes bed")
 
 
 def write_costs(rows: list[dict], key: str, none: str) -> int:

@@ -1,4 +1,4 @@
-"""Scene: a settled, levelled soil bed (the bed part, scripts/beds.py), saved once in results/beds/ and loaded
+"""Scene: a settled, levelled soil bed (the bed part, scripts/beds.py), saved once in results/cache/beds/ and loaded
 by every other scene.
 
     ./holes bed --soil clay --resolution default --size 200,200,150 --seed 1

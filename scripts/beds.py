@@ -22,7 +22,7 @@ Tiled beds (`tiles` = n > 1, periodic only): the settled periodic bed repeated n
 long and wide (`tile`). Every grain keeps its contacts, so the tiled bed is settled as it stands, and beds of
 different n share one packing: the paired width check of the cone index, where only the cell differs.
 
-Beds are keyed by soil (its settling parameters), resolution, size, sides and seed: results/beds/<key>.npz + .json.
+Beds are keyed by soil (its settling parameters), resolution, size, sides and seed: results/cache/beds/<key>.npz + .json.
 """
 from __future__ import annotations
 

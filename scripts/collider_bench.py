@@ -31,6 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.core.cli_types import option, CommandLine  # noqa: E402
 from analysis.core.config import COLLIDER_STEPS, THREADS
 from analysis.core.schema import ROOT
+from analysis.core.bed_spec import BED_DIR  # noqa: E402
 from analysis.core.io import atomic_csv, machine, read_table, stamp  # noqa: E402
 
 SETTINGS = [                # (name, InsertionSortCollider attributes); the first, YADE's default, runs twice
@@ -59,7 +60,7 @@ def main(argv=None) -> int:
                    "its rows of other runs kept)")
     p.add_argument("--profile", action="store_true", help="the adopted setting only, once: where the run's time goes")
     p.add_argument("--from-start", action="store_true", help="the run's first steps from its bed, not its checkpoint")
-    p.add_argument("--bed-dir", default=str(ROOT / "results/beds"), help="--from-start: the beds (default results/beds)")
+    p.add_argument("--bed-dir", default=str(BED_DIR), help="--from-start: the beds (default results/cache/beds)")
     a = p.parse_args(argv)
     a.out = a.out or str(ROOT / "results/bench" / ("profile.csv" if a.profile else "collider.csv"))
     settings = [SETTINGS[ADOPTED]] if a.profile else SETTINGS

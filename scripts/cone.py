@@ -10,7 +10,7 @@ The cone is scaled by `cone_scale` because a 12.83 mm cone meets only one or two
 2-core machine can hold; cone index = mean (axial force on the cone / base area) over base depths 0-150 mm,
 as in the field. Penetration is faster than S313's 30 mm/s (default 300 mm/s); the inertial number
 I = (v/D_cone)·d/sqrt(p/ρ) stays below 1e-2, the quasi-static range, and the speed is an option.
-Writes results/cone/<bed key>-c<scale>-v<speed>-coh<cohesion>.csv (depth, resistance) and a summary JSON line;
+Writes results/cache/cone/<bed key>-c<scale>-v<speed>-coh<cohesion>.csv (depth, resistance) and a summary JSON line;
 with --damage also <stem>-damage.csv: the bed's first bonds by depth band and distance from the cone's axis,
 and how many of them the penetration broke (how far the cone's damage reaches, against the bed's half-width).
 """
@@ -26,7 +26,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.core.cli_types import folder, option
 from analysis.core.config import CONE_DEPTH, CONE_FIELDS
-from analysis.core.schema import ROOT, ConfigError
+from analysis.core.schema import ConfigError  # noqa: E402
+from analysis.core.bed_spec import CONE_DIR  # noqa: E402
 from analysis.core.soil_config import SOIL_FIELDS, load_soil, parse_overrides, soil_with
 from analysis.core.io import atomic_write  # noqa: E402
 
@@ -133,7 +134,7 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
                "steps": int(O.iter),
                "dt": O.dt, "wall_s": time.time() - wall0, "threads": threads,
                "particle_steps_per_s": n_particles * O.iter / (time.time() - wall0)}
-    out_dir = out_dir or ROOT / "results/cone"
+    out_dir = out_dir or CONE_DIR
     from analysis.soil.calibrate import cone_result_name
     name = cone_result_name(meta["key"], cone_scale, speed, soil.normal_cohesion)
     atomic_write(out_dir / f"{name}.csv", "base_depth_m,resistance_pa\n" + "".join(f"{a:.5f},{b:.1f}\n" for a, b in rows))
@@ -187,7 +188,7 @@ def arguments():
                    help="Pa; overrides the soil config's normal and shear cohesion")
     p.add_argument("--depth", type=option("--depth", CONE_DEPTH), default=CI_DEPTH * 1000,
                    help="deepest base depth, mm (field: 150)")
-    p.add_argument("--out", type=folder("--out"), help="where the resistance CSV goes (default results/cone)")
+    p.add_argument("--out", type=folder("--out"), help="where the resistance CSV goes (default results/cache/cone)")
     p.add_argument("--damage", action="store_true", help="also map the bonds the cone broke (<stem>-damage.csv)")
     return p
 

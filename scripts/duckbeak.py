@@ -225,7 +225,8 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=folder("--out"), help="runs folder (default results/runs)")
     p.add_argument("--report", default=str(ROOT / "results/pepper/duckbeak"),
                    help="where the hole's table and pictures are copied (default results/pepper/duckbeak)")
-    p.add_argument("--bed-dir", type=folder("--bed-dir"), default=str(BED_DIR), help="where beds are kept (default results/beds)")
+    p.add_argument("--bed-dir", type=folder("--bed-dir"), default=str(BED_DIR),
+                   help="where beds are kept (default results/cache/beds)")
     p.add_argument("--rerun", action="store_true", help="run again even if this run's folder has a summary")
     a = p.parse_args(argv)
     runs = Path(a.out) if a.out else ROOT / "results/runs"

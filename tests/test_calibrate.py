@@ -115,7 +115,7 @@ def test_cone_checks_no_run_tables_stored_cases_only(tmp_path, monkeypatch):
         cone_checks.run(path, out=tmp_path, no_run=True)
     assert not (tmp_path / "checks.csv").exists() and not (tmp_path / "checks.png").exists()
     case = cone_checks.load_cases(path)[0]
-    monkeypatch.setattr(cone_checks, "ROOT", tmp_path)                      # no results/beds/ there
+    monkeypatch.setattr(cone_checks, "BED_DIR", tmp_path)                   # no beds there
     summary = {"cone_diameter_m": 0.03849, "cone_to_particle": 3.85, "cohesion_pa": case["cohesion"],
                "cone_index_pa": 445e3, "particles": 10146, "steps": 19000, "wall_s": 500.0, "threads": 1}
     row = cone_checks.row(case, summary)

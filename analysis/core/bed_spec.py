@@ -8,7 +8,8 @@ import math
 
 from analysis.core.schema import ROOT, ConfigError, Field
 
-BED_DIR = ROOT / "results/beds"
+BED_DIR = ROOT / "results/cache/beds"           # settled beds, made once and loaded by every scene
+CONE_DIR = ROOT / "results/cache/cone"          # cone runs, reused by the calibration and its checks
 SIZE_FIELDS = {"length": Field(0.02, 3.0, unit="m"), "width": Field(0.02, 1.0, unit="m"), "depth": Field(0.02, 0.5, unit="m")}
 
 

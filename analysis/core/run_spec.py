@@ -238,7 +238,8 @@ def arguments(exit_on_error: bool = True) -> argparse.ArgumentParser:
     p.add_argument("--threads", type=option("--threads", THREADS), default=2, help="YADE threads (default 2)")
     p.add_argument("--vtk", action="store_true", help="also write VTK files for ParaView")
     p.add_argument("--out", type=folder("--out"), help="runs folder (default results/runs)")
-    p.add_argument("--bed-dir", type=folder("--bed-dir"), default=str(BED_DIR), help="where beds are kept (default results/beds)")
+    p.add_argument("--bed-dir", type=folder("--bed-dir"), default=str(BED_DIR),
+                   help="where beds are kept (default results/cache/beds)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a soil contact parameter")
     p.add_argument("--tool", action="append", metavar="PART.KEY=VALUE",
                    help="override a disk or sleeve field, e.g. disk.D=45, sleeve.stiffness=16")

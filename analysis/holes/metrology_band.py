@@ -26,6 +26,7 @@ from analysis.core.io import atomic_csv, say, stamp
 from analysis.holes import carved
 from analysis.holes.caliper import JAWS, LEVEL_CANDIDATES, LEVELS
 from analysis.holes.metrology import caliper_reading, measure_state
+from analysis.core.bed_spec import BED_DIR
 
 RADII = (4.0, 5.0, 6.0, 8.0)           # mm: the grain radii of the presets' beds (configs/resolutions.toml)
 REALISATIONS = 2                        # places carved in each soil's bed
@@ -33,7 +34,7 @@ WINDOW = 320.0                          # mm of bed round each carved hole
 OUT = ROOT / "results/comparison/metrology"
 
 
-def beds(radius: float, bed_dir: Path = ROOT / "results/beds") -> list[Path]:
+def beds(radius: float, bed_dir: Path = BED_DIR) -> list[Path]:
     """The uniform strip beds of grain radius `radius` (mm), one per soil: graded beds left out, and beds too
     short for two places of WINDOW (a bench test's box settled in the same folder is not a strip)."""
     found = {}

@@ -17,6 +17,7 @@ from analysis.core.runner import run_process
 from analysis.core.schema import ROOT, ConfigError
 from analysis.core.soil_config import load_soil
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
+from analysis.core.bed_spec import CONE_DIR
 
 TOLERANCE = 0.05
 COHESION_KEYS = ("normal_cohesion", "shear_cohesion")   # calibrated together, kept equal
@@ -67,14 +68,14 @@ def bracket_search(f, target: float, lo: float, hi: float, tol: float = TOLERANC
 
 
 def cone_result_name(bed: str, cone_scale: float, speed: float, cohesion: float) -> str:
-    """File stem of one cone run's results in results/cone/ (written by scripts/cone.py)."""
+    """File stem of one cone run's results in results/cache/cone/ (written by scripts/cone.py)."""
     return f"{bed}-c{cone_scale:g}-v{speed:g}-coh{cohesion:g}"
 
 
 def cone_run(bed: str, match) -> tuple[Path, dict] | None:
-    """The first finished cone run on `bed` in results/cone/ whose summary satisfies `match`: (its summary's
+    """The first finished cone run on `bed` in results/cache/cone/ whose summary satisfies `match`: (its summary's
     path, the summary), or None."""
-    for path in sorted((ROOT / "results/cone").glob(f"{bed}-*.json")):
+    for path in sorted(CONE_DIR.glob(f"{bed}-*.json")):
         s = json.loads(path.read_text())
         if match(s):
             return path, s
@@ -87,7 +88,7 @@ def same_cohesion(s: dict, cohesion_pa: float) -> bool:
 
 
 def stored_cone(bed: str, cone_scale: float, speed: float, cohesion: float) -> tuple[Path, dict] | None:
-    """The finished cone run in results/cone/ of this bed, cone, speed and bond strength (within
+    """The finished cone run in results/cache/cone/ of this bed, cone, speed and bond strength (within
     SAME_COHESION), or None: the one lookup the calibration and the cone checks reuse runs by."""
     return cone_run(bed, lambda s: (s["cone_scale"], s["speed"]) == (cone_scale, speed) and same_cohesion(s, cohesion))
 
@@ -95,7 +96,7 @@ def stored_cone(bed: str, cone_scale: float, speed: float, cohesion: float) -> t
 def cone_index(soil: str, resolution: str, size: str, cone_scale: float, cohesion: float, seed: int = 1,
                speed: float = 0.5, threads: int = 2, lateral: str = "periodic", tag: str = "", tiles: int = 1) -> dict:
     """One cone scene in its own YADE process; its progress lines are echoed (prefixed with `tag`) as it runs.
-    Returns its summary; a run of the same bed, cone, speed and bond strength already in results/cone/
+    Returns its summary; a run of the same bed, cone, speed and bond strength already in results/cache/cone/
     (`stored_cone`) is reused."""
     from analysis.core.config import load_resolution
     from analysis.core.bed_spec import bed_key, check_size

@@ -12,6 +12,7 @@ from analysis.soil.calibrate import TOLERANCE, cone_result_name
 from analysis.core.schema import ROOT
 from analysis.core.soil_config import SOILS, load_soil
 from analysis.core.io import atomic_csv, read_table, stamp
+from analysis.core.bed_spec import BED_DIR, CONE_DIR
 
 CAL = ROOT / "results/calibration"
 
@@ -33,7 +34,7 @@ def core_density(bed: str, grain_density: float, moisture: float, diameter=0.050
     """Dry bulk density of a virtual cutting-ring core (100 cm³ ring, as field density is sampled) at the
     bed's centre, `top` below the surface: solid fraction by Monte Carlo points × grain density / (1 + w)."""
     from scipy.spatial import cKDTree
-    data = np.load(ROOT / "results/beds" / f"{bed}.npz")
+    data = np.load(BED_DIR / f"{bed}.npz")
     pos, rad = data["pos"], data["radius"]
     cx, cy = pos[:, 0].mean(), pos[:, 1].mean()
     z_top = np.percentile(pos[:, 2] + rad, 95) - top
@@ -57,12 +58,12 @@ def run(out=CAL) -> pd.DataFrame:
         if runs is None:
             continue
         a = runs.iloc[0]
-        metas = [json.loads((ROOT / "results/beds" / f"{bed}.json").read_text()) for bed in runs.bed]
+        metas = [json.loads((BED_DIR / f"{bed}.json").read_text()) for bed in runs.bed]
         cones, profiles = [], []
         for r in runs.itertuples():
             stem = cone_result_name(r.bed, r.cone_scale, r.speed_m_s, r.normal_cohesion_pa)    # may hold a "."
-            cones.append(json.loads((ROOT / "results/cone" / f"{stem}.json").read_text()))
-            prof = read_table(ROOT / "results/cone" / f"{stem}.csv")
+            cones.append(json.loads((CONE_DIR / f"{stem}.json").read_text()))
+            prof = read_table(CONE_DIR / f"{stem}.csv")
             prof = prof[(prof.base_depth_m >= 0) & (prof.base_depth_m <= 0.15)]
             profiles.append(prof.groupby((prof.base_depth_m * 1000 // 10) * 10 + 5).resistance_pa.mean() / 1000)
         mean = pd.concat(profiles, axis=1).mean(axis=1)

@@ -12,7 +12,7 @@ A case may pin its bond strength (`cohesion`, Pa, normal = shear), as a study at
 it is the soil config's calibrated value.
 
 Every case is one cone scene (scripts/cone.py, its own YADE process); cases sharing a bed run one after another,
-others `workers` at a time. A case already in results/cone/ (same bed, cone, speed, and a cohesion within 0.1 %:
+others `workers` at a time. A case already in results/cache/cone/ (same bed, cone, speed, and a cohesion within 0.1 %:
 the config keeps 4 significant digits of the calibrated value) is reused. results/calibration/<config's stem>.csv is
 rewritten as each case finishes, and <stem>.png drawn at the end.
 """
@@ -30,11 +30,12 @@ from analysis.core.io import say
 from analysis.soil.calibrate import cone_index, cone_run, same_cohesion, stored_cone
 from analysis.soil.calibration_report import CAL, core_density
 from analysis.core.config import SEED, check_lateral, load_resolution
-from analysis.core.schema import ROOT, check_table, read_toml, ConfigError, Field
+from analysis.core.schema import check_table, read_toml, ConfigError, Field
 from analysis.core.soil_config import load_soil
 from analysis.core.io import atomic_csv, read_table, stamp
 from analysis.core.bed_spec import TILES, bed_key, check_size, check_tiles
 from analysis.core.config import CONE_FIELDS
+from analysis.core.bed_spec import BED_DIR
 
 CHECKS = ("replicate", "width", "ratio", "tiled")
 CASE_FIELDS = {"check": Field(kind=str), "soil": Field(kind=str), "resolution": Field(kind=str),
@@ -72,7 +73,7 @@ def load_cases(path) -> list[dict]:
 
 
 def stored(case: dict) -> dict | None:
-    """A finished cone run of this case in results/cone/, or None."""
+    """A finished cone run of this case in results/cache/cone/, or None."""
     found = stored_cone(case["bed"], case["cone_scale"], case["speed"], case["cohesion"])
     return found[1] if found else None
 
@@ -81,7 +82,7 @@ def row(case: dict, s: dict, earlier: dict | None = None) -> dict:
     """One tidy row: the case, its cone index and bed densities against Table 2, and its cost. A bed not on this
     machine keeps the densities and settling time of its row in `earlier` (bed -> the table's last row of it)."""
     soil = case["soil_cfg"]
-    bed = ROOT / "results/beds" / f"{case['bed']}.json"
+    bed = BED_DIR / f"{case['bed']}.json"
     interior = core = settle_s = float("nan")
     if bed.exists():
         meta = json.loads(bed.read_text())
@@ -91,7 +92,7 @@ def row(case: dict, s: dict, earlier: dict | None = None) -> dict:
         e = earlier[case["bed"]]
         interior, core, settle_s = e["dry_density_interior"], e["dry_density_core"], e["bed_settle_s"]
     else:
-        say(f"cone-checks: bed {case['bed']} not in results/beds/ nor in the earlier table; its densities are left out")
+        say(f"cone-checks: bed {case['bed']} not in results/cache/beds/ nor in the earlier table; its densities are left out")
     n = case["tiles"]
     cell = [n * case["size"][0], n * case["size"][1], case["size"][2]]
     return {"check": case["check"], "soil": soil.name, "resolution": case["resolution"],
@@ -177,7 +178,7 @@ def tiled_verdict(table: pd.DataFrame) -> list[str]:
 
 
 def curve(r) -> pd.DataFrame | None:
-    """The resistance-depth curve of a table row's cone run (results/cone/<bed>-...csv), or None."""
+    """The resistance-depth curve of a table row's cone run (results/cache/cone/<bed>-...csv), or None."""
     found = cone_run(r.bed, lambda s: abs(1000 * s["cone_diameter_m"] - r.cone_diameter_mm) < 0.01
                      and same_cohesion(s, 1000 * r.cohesion_kpa))
     return pd.read_csv(found[0].with_suffix(".csv"), comment="#") if found else None
@@ -302,7 +303,7 @@ def run(config="configs/cone_checks.toml", workers: int = 2, threads: int = 1, o
         for fut in [pool.submit(run_group, ids) for ids in groups.values()]:
             fut.result()
     if not rows:
-        raise RuntimeError("no case finished" + (" (--no-run: none stored in results/cone/)" if no_run else ""))
+        raise RuntimeError("no case finished" + (" (--no-run: none stored in results/cache/cone/)" if no_run else ""))
     write()
     table = pd.DataFrame([rows[i] for i in sorted(rows)])
     plot(table, out / f"{stem}.png")
