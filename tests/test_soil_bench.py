@@ -122,30 +122,39 @@ def test_the_collapse_slope_reads_a_made_up_heap():
 SMALL = ["--soil", "sand", "--resolution", "medium", "--size", "100,100,60", "--threads", "1"]
 
 
+def bench_scenes(tmp_path, scene: str, cases: dict) -> dict:
+    """Run scripts/<scene>.py once per case (name -> extra arguments), two at a time, on one bed (each settles it
+    if it is not there yet; a bed is written atomically); name -> the JSON result it wrote."""
+    import subprocess
+    import sys
+    from concurrent.futures import ThreadPoolExecutor
+
+    def one(name):
+        out = tmp_path / name
+        r = subprocess.run([sys.executable, str(bench.ROOT / f"scripts/{scene}.py"), *SMALL, "--bed-dir",
+                            str(tmp_path / "beds"), "--out", str(out), *cases[name]], capture_output=True, text=True,
+                           timeout=600, cwd=bench.ROOT)
+        assert r.returncode == 0, r.stderr[-2000:]
+        return json.loads(next(out.glob("*.json")).read_text())
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        return dict(zip(cases, pool.map(one, cases)))
+
+
 @pytest.mark.scene
 def test_a_cohesionless_shear_box_gives_a_friction_angle_that_grows_with_the_grains_friction(tmp_path):
     """Sand's grains without any bond at two inter-particle frictions: c near zero (within a quarter of the
     stress range's shear strength) and φ higher for the rougher grains."""
-    from scripts import shear
-    fits = {}
-    for mu in (15.0, 35.0):
-        out = tmp_path / f"mu{mu:g}"
-        assert shear.main([*SMALL, "--bed-dir", str(tmp_path / "beds"), "--out", str(out), "--stress", "25,75", "--speed", "0.1",
-                           "--test-set", f"friction_deg={mu}", "--test-set", "normal_cohesion=0",
-                           "--test-set", "shear_cohesion=0"]) == 0
-        fits[mu] = json.loads(next(out.glob("*.json")).read_text())
+    fits = bench_scenes(tmp_path, "shear", {f"mu{mu:g}": ["--stress", "25,75", "--speed", "0.1", "--test-set",
+                                                         f"friction_deg={mu}", "--test-set", "normal_cohesion=0",
+                                                         "--test-set", "shear_cohesion=0"] for mu in (15.0, 35.0)})
     for fit in fits.values():
         assert abs(fit["c_kpa"]) < 0.25 * max(t["tau_peak_kpa"] for t in fit["tests"]), fit["c_kpa"]
-    assert fits[35.0]["phi_deg"] > fits[15.0]["phi_deg"] + 3, (fits[15.0]["phi_deg"], fits[35.0]["phi_deg"])
+    assert fits["mu35"]["phi_deg"] > fits["mu15"]["phi_deg"] + 3, (fits["mu15"]["phi_deg"], fits["mu35"]["phi_deg"])
 
 
 @pytest.mark.scene
 def test_disturbed_soil_with_its_bonds_back_stands_steeper_than_without(tmp_path):
-    from scripts import collapse
-    angles = {}
-    for frac in (0.0, 1.0):
-        out = tmp_path / f"f{frac:g}"
-        assert collapse.main([*SMALL, "--bed-dir", str(tmp_path / "beds"), "--out", str(out),
-                              "--test-set", f"new_contact_cohesion={frac}"]) == 0
-        angles[frac] = json.loads(next(out.glob("*.json")).read_text())["angle_deg"]
-    assert 15 < angles[0.0] < 60 and angles[1.0] > angles[0.0] + 10, angles
+    runs = bench_scenes(tmp_path, "collapse", {f"f{frac:g}": ["--test-set", f"new_contact_cohesion={frac}"]
+                                                for frac in (0.0, 1.0)})
+    angles = {name: r["angle_deg"] for name, r in runs.items()}
+    assert 15 < angles["f0"] < 60 and angles["f1"] > angles["f0"] + 10, angles
