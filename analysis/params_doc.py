@@ -7,8 +7,8 @@ it cannot drift from them (`./holes params` writes it; tests/test_config.py chec
 """
 from __future__ import annotations
 
-from analysis.core.config import (DISK_FIELDS, PRESET_FIELDS, PRESET_OPTIONAL, RESOLUTION_FIELDS, SEED,
-                                  SEEDLING_FIELDS, SLEEVE_FIELDS)
+from analysis.core.config import DISK_FIELDS, PRESET_FIELDS, PRESET_OPTIONAL, RESOLUTION_FIELDS, SEED, SLEEVE_FIELDS
+from analysis.core.seedling import SEEDLING_FIELDS
 from analysis.core.schema import ROOT, read_toml, Field
 from analysis.core.soil_config import SOILS, SOIL_FIELDS
 
@@ -127,8 +127,8 @@ def render() -> str:
 def check_configs():
     """Every config the page shows, loaded and checked as a run would load it: the page is never written from an
     invalid config (a ConfigError names the key)."""
-    from analysis.core.config import (load_criteria, load_disk, load_preset, load_resolution, load_seedling,
-                                      load_sleeve)
+    from analysis.core.config import load_disk, load_preset, load_resolution, load_sleeve
+    from analysis.core.seedling import load_criteria, load_seedling
     from analysis.core.soil_config import load_soil, table2_row
     disk = load_disk(ROOT / "configs/disk.toml")
     load_sleeve(ROOT / "configs/disk.toml", disk)

@@ -4,7 +4,8 @@ import math
 import pytest
 
 from analysis import cli, params_doc
-from analysis.core.config import DISK_FIELDS, PRESET_FIELDS, SLEEVE_FIELDS, load_disk, load_seedling
+from analysis.core.config import DISK_FIELDS, PRESET_FIELDS, SLEEVE_FIELDS, load_disk
+from analysis.core.seedling import load_seedling
 from analysis.core.schema import ROOT, ConfigError
 from analysis.core.soil_config import SOIL_FIELDS
 

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from analysis.holes import compare
-from analysis.core.config import load_criteria, threshold, Seedling
+from analysis.core.seedling import load_criteria, threshold, Seedling
 from analysis.core.schema import ROOT, ConfigError
 from analysis.core.io import read_table
 from analysis.holes import carved, metrology_band

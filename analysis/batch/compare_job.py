@@ -24,7 +24,8 @@ import pandas as pd
 from analysis.holes import compare, compare_report, measure, rings
 from analysis.core.io import say
 from analysis.core.runner import finished, plan_case, run_all, scene_args
-from analysis.core.config import load_criteria, load_preset
+from analysis.core.config import load_preset
+from analysis.core.seedling import load_criteria
 from analysis.core.schema import ROOT, ConfigError
 from analysis.batch.machine import TARGET_METRICS, load_of
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp

@@ -25,7 +25,8 @@ import pandas as pd
 from analysis.core.io import say
 from analysis.core.runner import finished, plan_case, run_all, scene_args
 from analysis.holes.compare import RESIDUAL_LIMIT, VALIDATED, residual_pct, shift
-from analysis.core.config import load_criteria, load_preset
+from analysis.core.config import load_preset
+from analysis.core.seedling import load_criteria
 from analysis.core.schema import ROOT, read_toml, ConfigError
 from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 

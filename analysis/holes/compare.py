@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.core.config import load_disk, load_seedling
+from analysis.core.config import load_disk
+from analysis.core.seedling import load_seedling
 from analysis.core.schema import ROOT
 from analysis.core.io import read_table
 

@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.core.config import load_seedling, Resolution
+from analysis.core.config import Resolution
+from analysis.core.seedling import load_seedling
 from analysis.core.schema import ConfigError
 from analysis.core.io import atomic_csv, read_table, stamp
 from analysis.core.kinematics import formed_hole_x

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.core.config import load_seedling
+from analysis.core.seedling import load_seedling
 from analysis.core.schema import ROOT
 from analysis.core.io import atomic_csv, say, stamp
 from analysis.holes import carved
