@@ -58,18 +58,23 @@ def load_targets(soil: str, path: Path = TARGETS) -> pd.DataFrame:
 def evaluation_id(soil: str, seed: int, params: dict, cfg: dict) -> str:
     """One evaluation's folder name: the soil, the packing and a hash of the parameters (4 significant digits)
     and the bench's settings."""
-    key = {"soil": soil, "seed": seed, "params": {k: float(f"{v:.4g}") for k, v in sorted(params.items())},
+    key = {"soil": soil, "seed": seed, "params": dict(sorted(rounded(params).items())),
            "resolution": cfg["resolution"], "size_mm": list(cfg["size_mm"]), "stresses": list(cfg["stresses_kpa"]),
            "speed": float(cfg["speed_m_s"]), "scenes": SCENES_VERSION}
     return f"s{seed}-{hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]}"
 
 
+def rounded(params: dict) -> dict:
+    """The parameters to 4 significant digits: what an evaluation runs with and is named by."""
+    return {k: float(f"{v:.4g}") for k, v in params.items()}
+
+
 def overrides(params: dict) -> list[str]:
     """The scenes' --test-set items for a parameter set (the shear bond kept equal to the normal bond)."""
-    rounded = {k: float(f"{v:.4g}") for k, v in params.items()}
-    if "normal_cohesion" in rounded:
-        rounded["shear_cohesion"] = rounded["normal_cohesion"]
-    return [f"{k}={v}" for k, v in rounded.items()]
+    items = rounded(params)
+    if "normal_cohesion" in items:
+        items["shear_cohesion"] = items["normal_cohesion"]
+    return [f"{k}={v}" for k, v in items.items()]
 
 
 def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
@@ -125,15 +130,15 @@ def _shear_peaks(folder: Path) -> list[float]:
 def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out_dir: Path = BENCH_DIR) -> list[dict]:
     """Every (seed, parameters) evaluation, `cfg["workers"]` at a time, with progress and an ETA."""
     rows: list = [None] * len(seeds_params)
-    wall0, durations = time.time(), []
+    wall0 = time.time()
 
     def one(i):
         seed, params = seeds_params[i]
         rows[i] = evaluate(soil, seed, params, cfg, out_dir)
-        durations.append(time.time() - wall0)
-        left = len(seeds_params) - len(durations)
-        say(f"calibrate {soil}: {len(durations)}/{len(seeds_params)} evaluations done, {time.time() - wall0:.0f} s, "
-            f"ETA {(time.time() - wall0) / len(durations) * left:.0f} s")
+        done = sum(r is not None for r in rows)
+        elapsed = time.time() - wall0
+        say(f"calibrate {soil}: {done}/{len(seeds_params)} evaluations done, {elapsed:.0f} s, "
+            f"ETA {elapsed / done * (len(seeds_params) - done):.0f} s")
 
     with ThreadPoolExecutor(max_workers=int(cfg["workers"])) as pool:
         list(pool.map(one, range(len(seeds_params))))
