@@ -4,12 +4,12 @@
 
 A settled bed's grains stand in a box (a back wall, two smooth side walls, a gate, a rough floor reaching
 RUNOUT_LENGTHS × the column's length beyond the gate). Every contact is a new one, bonded at the soil's
-`new_contact_cohesion` of the intact bonds' strength: the column is soil that a tool has broken and that has
-been pressed together again, what falls back into a hole. The gate is taken away and the column slumps under
-gravity until all but a few grains (STILL_SHARE) move slower than STILL_SPEED. The slope angle is the steepest line fitted to the
-surface's height profile between where it falls below 80 % and below 20 % of the crest's height, downhill from
-the crest (analysis/soil/collapse.py; the surface: the highest grain top per bin of one grain diameter along the
-run-out), the front the farthest a grain got. Writes
+`new_contact_cohesion` of the intact bonds' strength: the column is soil that a tool has broken and that has been
+pressed together again, what falls back into a hole. The gate is taken away and the column slumps under gravity
+until all but a few grains (STILL_SHARE) move slower than STILL_SPEED. The slope angle is the drop from 80 % to 20 % of
+the crest's height over the distance between where the surface's height profile first falls below each, downhill
+from the crest, each crossing interpolated between bins (analysis/soil/collapse.py; the surface: the highest
+grain top per bin of one grain diameter along the run-out), the front the farthest a grain got. Writes
 results/soils/collapse/<bed key>.json (or --out) and prints it as a JSON line.
 """
 from __future__ import annotations

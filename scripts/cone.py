@@ -137,6 +137,11 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     out_dir = out_dir or CONE_DIR
     from analysis.soil.calibrate import cone_result_name
     name = cone_result_name(meta["key"], cone_scale, speed, soil.normal_cohesion)
+    tested = {k: v for k, v in (overrides or {}).items() if k not in ("normal_cohesion", "shear_cohesion")}
+    if tested:                         # a law tested on the configured bed: named apart from the configured soil's runs
+        import hashlib
+        name += "-t" + hashlib.sha1(json.dumps(sorted(tested.items())).encode()).hexdigest()[:8]
+        summary["overrides"] = tested
     atomic_write(out_dir / f"{name}.csv", "base_depth_m,resistance_pa\n" + "".join(f"{a:.5f},{b:.1f}\n" for a, b in rows))
     atomic_write(out_dir / f"{name}.json", json.dumps(summary, indent=1))
     if damage:
@@ -190,6 +195,7 @@ def arguments():
                    help="deepest base depth, mm (field: 150)")
     p.add_argument("--out", type=folder("--out"), help="where the resistance CSV goes (default results/cache/cone)")
     p.add_argument("--damage", action="store_true", help="also map the bonds the cone broke (<stem>-damage.csv)")
+    bed.add_test_set(p)
     return p
 
 
@@ -197,8 +203,10 @@ def main(argv=None) -> int:
     from scripts import beds as bed
     a = arguments().parse_args(argv)
     try:
+        test = {**parse_overrides(a.set), **parse_overrides(a.test_set)}
+        soil_with(load_soil(a.soil), test)              # every override checked before a bed settles
         summary = run(bed.bed_from_args(a), a.soil, a.cone_scale, a.cone_speed, a.cohesion, a.threads, a.depth / 1000,
-                      out_dir=Path(a.out) if a.out else None, overrides=parse_overrides(a.set), damage=a.damage)
+                      out_dir=Path(a.out) if a.out else None, overrides=test, damage=a.damage)
     except (ConfigError, ValueError) as e:
         print(f"cone: {e}", file=sys.stderr)
         return 2

@@ -1,11 +1,13 @@
 """Scene part: the moist-soil contact physics (YADE CohFrictMat family), shared by every scene.
 
-Cohesion is a bond strength in Pa over each contact's cross-section π·r_min², so a bond's force scales with
-the particle size and the bed's macroscopic cohesion does not depend on the resolution to first order.
-`Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(setCohesionOnNewContacts=True)` bonds every new contact, so soil
-that a punch has broken re-adheres where it is pressed together (as moist soil does), while `fragile`
-bonds, once broken, leave friction only. Rolling resistance (`momentRotationLaw`, alphaKr, etaRoll) stands
-in for grain angularity.
+Cohesion is a bond strength in Pa times the smaller grain's radius squared, r_min² (YADE 2023.02a's Ip2, no π: 48
+kPa bonds 1.18 N at r_min 4.96 mm), so a bond's force scales with the particle size and the bed's macroscopic
+cohesion does not depend on the resolution to first order.
+`Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(setCohesionOnNewContacts=True)` bonds every new contact, so soil that a
+punch has broken re-adheres where it is pressed together (as moist soil does). Fragile bonds (`bond_fragile` 1),
+once their strength is exceeded, leave friction only; ductile ones (0) slide keeping their shear strength, as the
+suction of a moist soil's water holds while it shears, and break only when pulled apart. Rolling resistance
+(`momentRotationLaw`, alphaKr, etaRoll) stands in for grain angularity.
 """
 import math
 
@@ -22,7 +24,7 @@ STEEL_SOIL_FRICTION_DEG = 25.0   # soil on polished steel, typical 20-30 deg
 def soil_material(soil, density: float, young: float | None = None, cohesive: bool = True):
     """The soil's particle material; `young` overrides the modulus (softer while settling)."""
     return CohFrictMat(young=young or soil.young, poisson=soil.poisson, frictionAngle=math.radians(soil.friction_deg),
-                       density=density, isCohesive=cohesive, fragile=True,
+                       density=density, isCohesive=cohesive, fragile=bool(soil.bond_fragile),
                        normalCohesion=soil.normal_cohesion if cohesive else 0.0,
                        shearCohesion=soil.shear_cohesion if cohesive else 0.0,
                        momentRotationLaw=True, alphaKr=soil.rolling_stiffness, etaRoll=soil.rolling_friction,

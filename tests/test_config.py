@@ -178,6 +178,17 @@ def test_table2_is_ranged_like_every_other_config(tmp_path, column, value):
         assert table2_row(soil, "test")["cone_index_kPa"] > 0
 
 
+def test_bond_fragile_is_a_switch_in_a_config_and_in_an_override(tmp_path):
+    from analysis.core.soil_config import load_soil, soil_with
+    assert load_soil("clay").bond_fragile == 1.0 and soil_with(load_soil("clay"), {"bond_fragile": 0}).bond_fragile == 0
+    with pytest.raises(ConfigError, match=r"bond_fragile = 0.5: allowed 0 or 1"):
+        soil_with(load_soil("clay"), {"bond_fragile": 0.5})
+    text = (ROOT / "configs/soils/clay.toml").read_text().replace("damping =", "bond_fragile = 0.3\ndamping =", 1)
+    (tmp_path / "clay.toml").write_text(text)
+    with pytest.raises(ConfigError, match=r"soil: bond_fragile = 0.3: allowed 0 or 1"):
+        load_soil(tmp_path / "clay.toml")
+
+
 @pytest.mark.parametrize("value", [math.inf, -math.inf, math.nan])
 def test_a_whole_number_key_refuses_inf_and_nan_with_its_range(value):
     from analysis.core.config import SEED

@@ -14,6 +14,17 @@ import numpy as np
 HOLE_METRICS = {"L0", "L1", "L2", "L2_surface", "h1", "C", "pass_rate"}   # never a soil's target
 
 
+def untested(value, target) -> float:
+    """A response the model could not give (NaN: its test stopped) reads as a miss a thousand times its target,
+    so its sample weighs nothing and the filter carries on.
+
+    >>> untested(float("nan"), 20.0), untested(3.0, 20.0)
+    (20000.0, 3.0)
+    """
+    value = float(value)
+    return value if np.isfinite(value) else 1000.0 * float(target)
+
+
 def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations: int = 4,
               seed_ess: float = 0.3, seed: int = 0, batch: bool = False) -> dict:
     """Fit `bounds`' parameters ({name: (lo, hi)}) so that model(params dict) -> {response: value} meets `targets`
@@ -35,7 +46,7 @@ def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations:
     def run(calib):
         rows = [dict(zip(names, map(float, row))) for row in calib.system.param_data]
         outs = model(rows) if batch else [model(row) for row in rows]
-        calib.system.set_sim_data([np.array([[float(out[r]) for r in responses]]) for out in outs])
+        calib.system.set_sim_data([np.array([[untested(out[r], targets[r]) for r in responses]]) for out in outs])
 
     calib = BayesianCalibration.from_dict({
         "num_iter": iterations, "callback": run, "save_fig": -1,

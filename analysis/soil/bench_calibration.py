@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import sys
 import time
 import tomllib
@@ -26,13 +27,14 @@ CONFIG = ROOT / "configs/bench_calibration.toml"
 TARGETS = ROOT / "configs/field/soil_targets.csv"
 BENCH_DIR = ROOT / "results/calibration/bench"
 RESPONSES = ("c_kpa", "phi_deg", "collapse_deg")
+UNTESTABLE = 3         # a bench scene's exit code when it stopped the test itself (scripts/shear.py, scripts/collapse.py)
 SCENES_VERSION = 2     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
 
 
 def load_config(path: Path = CONFIG) -> dict:
     """The calibration's settings and its parameters' prior ranges, checked."""
     cfg = tomllib.loads(Path(path).read_text())
-    bench, bounds = cfg.get("bench", {}), cfg.get("bounds", {})
+    bench, bounds, fixed = cfg.get("bench", {}), cfg.get("bounds", {}), cfg.get("fixed", {})
     need = {"resolution", "size_mm", "stresses_kpa", "speed_m_s", "calibration_seed", "check_seeds", "samples",
             "iterations", "workers"}
     if need - set(bench):
@@ -42,7 +44,14 @@ def load_config(path: Path = CONFIG) -> dict:
             raise ConfigError(f"{path}: bounds.{name} = {rng}: allowed [lo, hi] with lo < hi")
     if len(bounds) < 3:
         raise ConfigError(f"{path}: [bounds] names {len(bounds)} parameters: allowed three or more")
-    return {**bench, "bounds": {k: tuple(map(float, v)) for k, v in bounds.items()}}
+    if set(fixed) & set(bounds):
+        raise ConfigError(f"{path}: {', '.join(sorted(set(fixed) & set(bounds)))} both fixed and calibrated: allowed one")
+    from analysis.core.soil_config import SOIL_FIELDS
+    unknown = sorted((set(fixed) | set(bounds)) - set(SOIL_FIELDS))
+    if unknown:
+        raise ConfigError(f"{path}: {', '.join(unknown)}: allowed soil contact parameters {', '.join(SOIL_FIELDS)}")
+    return {**bench, "bounds": {k: tuple(map(float, v)) for k, v in bounds.items()},
+            "fixed": {k: float(v) for k, v in fixed.items()}}
 
 
 def load_targets(soil: str, path: Path = TARGETS) -> pd.DataFrame:
@@ -61,6 +70,8 @@ def evaluation_id(soil: str, seed: int, params: dict, cfg: dict) -> str:
     key = {"soil": soil, "seed": seed, "params": dict(sorted(rounded(params).items())),
            "resolution": cfg["resolution"], "size_mm": list(cfg["size_mm"]), "stresses": list(cfg["stresses_kpa"]),
            "speed": float(cfg["speed_m_s"]), "scenes": SCENES_VERSION}
+    if cfg.get("fixed"):                    # named only when there is one: the earlier evaluations keep their ids
+        key["fixed"] = dict(sorted(cfg["fixed"].items()))
     return f"s{seed}-{hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]}"
 
 
@@ -69,9 +80,10 @@ def rounded(params: dict) -> dict:
     return {k: float(f"{v:.4g}") for k, v in params.items()}
 
 
-def overrides(params: dict) -> list[str]:
-    """The scenes' --test-set items for a parameter set (the shear bond kept equal to the normal bond)."""
-    items = rounded(params)
+def overrides(params: dict, fixed: dict | None = None) -> list[str]:
+    """The scenes' --test-set items for a parameter set and the calibration's fixed parameters (the shear bond
+    kept equal to the normal bond)."""
+    items = {**(fixed or {}), **rounded(params)}
     if "normal_cohesion" in items:
         items["shear_cohesion"] = items["normal_cohesion"]
     return [f"{k}={v}" for k, v in items.items()]
@@ -83,11 +95,12 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
     folder = Path(out_dir) / soil / evaluation_id(soil, seed, params, cfg)
     done = folder / "responses.json"
     if done.exists():
-        return with_collapse_angle(json.loads(done.read_text()), folder)
+        row = json.loads(done.read_text())
+        return row if row.get("failed") else with_collapse_angle(row, folder)
     folder.mkdir(parents=True, exist_ok=True)
     common = ["--soil", soil, "--resolution", cfg["resolution"], "--size", ",".join(map(str, cfg["size_mm"])),
               "--seed", str(seed), "--threads", "1", "--out", str(folder)]
-    for item in overrides(params):
+    for item in overrides(params, cfg.get("fixed")):
         common += ["--test-set", item]
     wall0 = time.time()
     results = {}
@@ -98,6 +111,12 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
                                     lambda line: log.write(line))
         if code != 0:
             tail = "".join((folder / f"{scene}.log").read_text().splitlines(keepends=True)[-8:])
+            if code == UNTESTABLE:      # the scene stopped the test (a leaking box, a grain flying): no response
+                row = {"id": folder.name, "soil": soil, "seed": seed, **params, **{r: math.nan for r in RESPONSES},
+                       "failed": f"scripts/{scene}.py: {tail.strip().splitlines()[-1]}", "wall_s": time.time() - wall0}
+                atomic_write(done, json.dumps(row, indent=1))
+                say(f"calibrate {soil} {folder.name}: {row['failed']} (weighs nothing in the filter)")
+                return row
             raise RuntimeError(f"{soil} {folder.name}: scripts/{scene}.py exited {code}:\n{tail}")
         results[scene] = json.loads(out.strip().splitlines()[-1])
     row = {"id": folder.name, "soil": soil, "seed": seed, **params, "c_kpa": results["shear"]["c_kpa"],
@@ -166,12 +185,13 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     last = table["iteration"] == table["iteration"].max()
     table.loc[last, "weight_last"] = np.asarray(post["weights"])[-1] if np.ndim(post["weights"]) > 1 else post["weights"]
     summary = {k: post[k] for k in ("names", "mean", "cv", "most_probable")}
+    summary["fixed"] = dict(cfg.get("fixed", {}))
     summary["interval"] = weighted_intervals(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
     summary["correlation"] = weighted_correlation(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
     summary["targets"] = {r: [float(targets.loc[r, "lo"]), float(targets.loc[r, "hi"]), targets.loc[r, "source"]]
                           for r in RESPONSES}
     out_dir.mkdir(parents=True, exist_ok=True)
-    atomic_csv(table.drop(columns=["tau_peak_kpa"]), Path(out_dir) / f"{soil}.csv")
+    atomic_csv(table.drop(columns=["tau_peak_kpa"], errors="ignore"), Path(out_dir) / f"{soil}.csv")
     atomic_write(Path(out_dir) / f"{soil}-posterior.json", json.dumps(summary, indent=1))
     return summary
 
@@ -211,7 +231,7 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
     targets = load_targets(soil)
     params = {k: float(v) for k, v in post["mean"].items()}
     rows = evaluate_all(soil, [(int(s), params) for s in cfg["check_seeds"]], cfg, out_dir)
-    table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"])
+    table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
     atomic_csv(table, Path(out_dir) / f"{soil}-check.csv")
     out = {}
     for r in RESPONSES:
@@ -241,6 +261,9 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
         last = t[t["weight_last"].notna()]
         for j, n in enumerate(names):
             ax = axes[i][j]
+            if n not in t.columns:              # calibrated before this parameter was
+                ax.set_visible(False)
+                continue
             ax.scatter(t[n], t["iteration"], s=12, c="0.6", label="samples")
             ax.scatter(last[n], last["iteration"], s=20 + 300 * last["weight_last"], c=colours[soil], label="last, by weight")
             lo, hi = post["interval"][n]
@@ -278,7 +301,8 @@ POSTERIOR_HEAD = "# GrainLearning's posterior on the bench tests"
 
 
 def posterior_block(soil: str, post: dict, check_result: dict, command: str) -> str:
-    """The `[bench_posterior]` table a soil's config carries: each parameter's posterior mean and 95 % interval,
+    """The `[bench_posterior]` table a soil's config carries: the parameters held fixed, each calibrated parameter's
+    posterior mean and 95 % interval,
     their correlations, the bench responses of the mean over the check packings, and whether every packing's
     response lies inside every target's range (status)."""
     inside = all(v["every_packing_inside"] for v in check_result.values())
@@ -287,6 +311,8 @@ def posterior_block(soil: str, post: dict, check_result: dict, command: str) -> 
         ", ".join(missed)
     lines = [POSTERIOR_HEAD + f" (`{command}`), results/calibration/bench/{soil}-posterior.json; the runs of the",
              "# holes use [soil] above until it is adopted.", "[bench_posterior]", f'status = "{status}"']
+    if post.get("fixed"):                     # held, not calibrated: the posterior holds with these only
+        lines.append("fixed = { " + ", ".join(f"{k} = {v:g}" for k, v in post["fixed"].items()) + " }")
     for n in post["names"]:
         lo, hi = post["interval"][n]
         lines.append(f"{n} = {{ mean = {post['mean'][n]:.4g}, lo = {lo:.4g}, hi = {hi:.4g} }}")
