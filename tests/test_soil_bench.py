@@ -144,10 +144,14 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
     assert table["status"].startswith(("within every target", "outside its target"))
 
 
-def test_an_override_out_of_range_stops_the_collapse_test_before_any_bed(capsys):
-    from scripts import collapse
-    assert collapse.main(["--soil", "clay", "--bed-dir", "/nonexistent", "--test-set", "friction_deg=99"]) == 2
+@pytest.mark.parametrize("scene", ["collapse", "cone"])
+def test_an_override_out_of_range_stops_a_bench_test_before_any_bed(capsys, scene):
+    import importlib
+    main = importlib.import_module(f"scripts.{scene}").main
+    assert main(["--soil", "clay", "--bed-dir", "/nonexistent", "--test-set", "friction_deg=99"]) == 2
     assert "friction_deg" in capsys.readouterr().err
+    assert main(["--soil", "clay", "--bed-dir", "/nonexistent", "--test-set", "bond_fragile=0.5"]) == 2
+    assert "bond_fragile = 0.5: allowed 0 or 1" in capsys.readouterr().err
 
 
 def test_the_collapse_slope_reads_a_made_up_heap():

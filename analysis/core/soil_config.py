@@ -14,8 +14,8 @@ SOIL_FIELDS = {
     "friction_deg": Field(0.0, 60.0, unit="deg", meaning="inter-particle friction angle"),
     "rolling_stiffness": Field(0.0, 10.0, meaning="alphaKr: rolling stiffness / shear stiffness"),
     "rolling_friction": Field(0.0, 5.0, meaning="etaRoll: plastic rolling moment limit / (radius · normal force)"),
-    "normal_cohesion": Field(0.0, 1e8, unit="Pa", meaning="tensile bond strength per contact area"),
-    "shear_cohesion": Field(0.0, 1e8, unit="Pa", meaning="shear bond strength per contact area"),
+    "normal_cohesion": Field(0.0, 1e8, unit="Pa", meaning="tensile bond strength; times r_min² the bond's force (YADE, no π)"),
+    "shear_cohesion": Field(0.0, 1e8, unit="Pa", meaning="shear bond strength; times r_min² the bond's shear force"),
     "damping": Field(0.0, 0.9, meaning="YADE local damping in tool scenes"),
     "new_contact_cohesion": Field(0.0, 1.0, meaning="the bond a contact made after disturbance gets, as a fraction "
                                   "of the intact bonds' strength (1: moist soil re-adheres fully; 0: friction only)"),
