@@ -181,11 +181,11 @@ def test_table2_is_ranged_like_every_other_config(tmp_path, column, value):
 def test_bond_fragile_is_a_switch_in_a_config_and_in_an_override(tmp_path):
     from analysis.core.soil_config import load_soil, soil_with
     assert load_soil("clay").bond_fragile == 1.0 and soil_with(load_soil("clay"), {"bond_fragile": 0}).bond_fragile == 0
-    with pytest.raises(ConfigError, match=r"bond_fragile = 0.5: allowed 0 or 1"):
+    with pytest.raises(ConfigError, match=r"bond_fragile = 0.5: must be a whole number in \[0, 1\]"):
         soil_with(load_soil("clay"), {"bond_fragile": 0.5})
     text = (ROOT / "configs/soils/clay.toml").read_text().replace("damping =", "bond_fragile = 0.3\ndamping =", 1)
     (tmp_path / "clay.toml").write_text(text)
-    with pytest.raises(ConfigError, match=r"soil: bond_fragile = 0.3: allowed 0 or 1"):
+    with pytest.raises(ConfigError, match=r"soil.bond_fragile = 0.3: must be a whole number in \[0, 1\]"):
         load_soil(tmp_path / "clay.toml")
 
 

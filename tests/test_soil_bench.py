@@ -151,7 +151,7 @@ def test_an_override_out_of_range_stops_a_bench_test_before_any_bed(capsys, scen
     assert main(["--soil", "clay", "--bed-dir", "/nonexistent", "--test-set", "friction_deg=99"]) == 2
     assert "friction_deg" in capsys.readouterr().err
     assert main(["--soil", "clay", "--bed-dir", "/nonexistent", "--test-set", "bond_fragile=0.5"]) == 2
-    assert "bond_fragile = 0.5: allowed 0 or 1" in capsys.readouterr().err
+    assert "bond_fragile = 0.5: must be a whole number in [0, 1]" in capsys.readouterr().err
 
 
 def test_the_collapse_slope_reads_a_made_up_heap():

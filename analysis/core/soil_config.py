@@ -19,10 +19,10 @@ SOIL_FIELDS = {
     "damping": Field(0.0, 0.9, meaning="YADE local damping in tool scenes"),
     "new_contact_cohesion": Field(0.0, 1.0, meaning="the bond a contact made after disturbance gets, as a fraction "
                                   "of the intact bonds' strength (1: moist soil re-adheres fully; 0: friction only)"),
-    "bond_fragile": Field(0.0, 1.0, meaning="1: a bond whose strength is exceeded breaks for good (friction only after); "
+    "bond_fragile": Field(0, 1, kind=int, meaning="1: a bond whose strength is exceeded breaks for good (friction only after); "
                           "0: it slides keeping its shear strength and breaks only when pulled apart"),
 }
-SOIL_DEFAULTS = {"new_contact_cohesion": 1.0, "bond_fragile": 1.0}   # optional in a soil config; a run's id leaves them out
+SOIL_DEFAULTS = {"new_contact_cohesion": 1.0, "bond_fragile": 1}   # optional in a soil config; a run's id leaves them out
 SOILS = ("clay", "loam", "sand")
 
 
@@ -42,7 +42,7 @@ class Soil:
     cone_index: float        # Pa, mean over 0-150 mm, Table 2
     moisture: float          # mass fraction of water to dry soil, Table 2
     new_contact_cohesion: float = 1.0   # fraction of the intact bonds' strength a new contact gets
-    bond_fragile: float = 1.0           # 1: bonds break when exceeded; 0: they slide and break only in tension
+    bond_fragile: int = 1               # 1: bonds break when exceeded; 0: they slide and break only in tension
 
     @property
     def wet_density(self) -> float:
@@ -81,15 +81,8 @@ def table2_row(name: str, where: str, path=TABLE2) -> dict:
     return out
 
 
-def either_or(where: str, values: dict) -> dict:
-    """`bond_fragile` is a switch: 0 or 1, nothing between."""
-    if values.get("bond_fragile", 1.0) not in (0.0, 1.0):
-        raise ConfigError(f"{where}: bond_fragile = {values['bond_fragile']}: allowed 0 or 1")
-    return values
-
-
 def soil_from_dict(name: str, values: dict, where: str) -> Soil:
-    v = either_or(where, check_table(where, values, SOIL_FIELDS, optional=SOIL_DEFAULTS))
+    v = check_table(where, values, SOIL_FIELDS, optional=SOIL_DEFAULTS)
     t = table2_row(name, where)
     return Soil(name=name, **v, bulk_density=1000 * t["bulk_density_g_cm3"],
                 cone_index=1000 * t["cone_index_kPa"], moisture=t["moisture_percent"] / 100)
@@ -115,7 +108,7 @@ def soil_with(soil: Soil, overrides: dict) -> Soil:
         raise ConfigError(f"soil override {', '.join(unknown)}: allowed keys {', '.join(SOIL_FIELDS)}")
     checked = {k: SOIL_FIELDS[k].check(f"soil override {k}", number(v, f"soil override {k}", SOIL_FIELDS[k]))
                for k, v in overrides.items()}
-    return dataclasses.replace(soil, **either_or("soil override", checked))
+    return dataclasses.replace(soil, **checked)
 
 
 def parse_overrides(items) -> dict:

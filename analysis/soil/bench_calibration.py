@@ -261,9 +261,6 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
         last = t[t["weight_last"].notna()]
         for j, n in enumerate(names):
             ax = axes[i][j]
-            if n not in t.columns:              # calibrated before this parameter was
-                ax.set_visible(False)
-                continue
             ax.scatter(t[n], t["iteration"], s=12, c="0.6", label="samples")
             ax.scatter(last[n], last["iteration"], s=20 + 300 * last["weight_last"], c=colours[soil], label="last, by weight")
             lo, hi = post["interval"][n]
