@@ -133,7 +133,7 @@ def cmd_calibrate_bench(args) -> int:
     from analysis.core.soil_config import load_soil
     from analysis.core.config import load_resolution
     try:
-        cfg = bench.load_config()
+        cfg = bench.load_config(soil=args.soil)
         load_soil(args.soil), bench.load_targets(args.soil), load_resolution(cfg["resolution"])
     except ConfigError as e:
         print(f"calibrate: {e}", file=sys.stderr)

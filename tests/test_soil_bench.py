@@ -46,6 +46,50 @@ def test_a_fixed_parameter_is_a_soil_parameter_not_also_calibrated(tmp_path, fix
         bench.load_config(tmp_path / "b.toml")
 
 
+def test_a_soils_own_prior_narrows_the_common_one_and_is_checked(tmp_path):
+    common, sand = bench.load_config()["bounds"], bench.load_config(soil="sand")["bounds"]
+    assert set(sand) == set(common)
+    assert all(common[k][0] <= sand[k][0] < sand[k][1] <= common[k][1] for k in common)
+    assert sand != common
+    for extra, match in [("[soil_bounds.peat]\nfriction_deg = [10.0, 20.0]", "soil_bounds.peat"),
+                         ("[soil_bounds.clay]\ncolour = [1.0, 2.0]", "soil_bounds.clay.colour"),
+                         ("[soil_bounds.clay]\nfriction_deg = [20.0, 10.0]", "soil_bounds.clay.friction_deg")]:
+        text = bench.CONFIG.read_text()
+        text = text[:text.index("[soil_bounds")] + extra + "\n"
+        (tmp_path / "b.toml").write_text(text)
+        with pytest.raises(ConfigError, match=match):
+            bench.load_config(tmp_path / "b.toml", soil="clay")
+
+
+def test_the_response_surfaces_find_the_region_a_made_up_planar_bench_puts_the_targets_in():
+    """A bench that is planar in the surfaces' terms, with scatter: the planes come back, and the region where they
+    meet targets set round a known parameter set holds that set."""
+    rng = np.random.default_rng(3)
+    bounds = bench.load_config()["bounds"]
+    table = pd.DataFrame({k: rng.uniform(lo, hi, 60) for k, (lo, hi) in bounds.items()})
+
+    def planar(t):
+        x = bench.surface_terms(t)
+        return pd.DataFrame({"c_kpa": 2 + 0.07 * x.bond_kpa + 40 * x.rolling_friction,
+                             "phi_deg": 22 + 0.45 * x.friction_deg + 10 * x.rolling_friction,
+                             "collapse_deg": 20 + 2.5 * x.disturbed_bond_kpa + 0.5 * x.friction_deg})
+    clean = planar(table)
+    for r in bench.RESPONSES:
+        table[r] = clean[r] + rng.normal(0, 0.5, len(table))
+    surf = bench.response_surfaces(table).set_index("response")
+    assert surf.loc["c_kpa", "bond_kpa"] == pytest.approx(0.07, rel=0.05)
+    assert surf.loc["collapse_deg", "disturbed_bond_kpa"] == pytest.approx(2.5, rel=0.05)
+    assert (surf["r2"] > 0.95).all() and (surf["resid_sd"] < 1.0).all()
+    truth = pd.DataFrame([{"normal_cohesion": 3e5, "friction_deg": 15.0, "new_contact_cohesion": 0.005,
+                           "rolling_friction": 0.05}])
+    at = planar(truth).iloc[0]
+    targets = pd.DataFrame({"lo": at - 3, "hi": at + 3})
+    region = bench.feasible_region(surf.reset_index(), targets, bounds)
+    assert 0 < region["share"] < 0.2
+    for k, v in truth.iloc[0].items():
+        assert region[k][0] <= v <= region[k][2], (k, region[k])
+
+
 def test_the_fixed_parameters_reach_the_scenes_and_name_the_evaluation():
     cfg = bench.load_config()
     params = {"normal_cohesion": 3e5, "friction_deg": 20.0, "new_contact_cohesion": 0.01, "rolling_friction": 0.1}
@@ -131,7 +175,7 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
     for r in bench.RESPONSES:
         assert math.isfinite(result[r]["mean"]) and result[r]["sd"] > 0
         assert isinstance(result[r]["every_packing_inside"], bool)
-    assert [p.name for p in bench.report(tmp_path)] == ["posterior.png", "responses.png"]
+    assert [p.name for p in bench.report(tmp_path)] == ["posterior.png", "responses.png", "surfaces.csv", "feasible.csv"]
     config = tmp_path / "clay.toml"
     config.write_text((bench.ROOT / "configs/soils/clay.toml").read_text())
     for _ in range(2):                                       # written again, it replaces its own table

@@ -1,9 +1,12 @@
-"""The soils' bench calibration: three contact parameters per soil (intact bond strength, inter-particle friction,
-the cohesion a contact gets when it forms after disturbance) fitted with GrainLearning's Bayesian filter
+"""The soils' bench calibration: the contact parameters of configs/bench_calibration.toml per soil (intact bond
+strength, inter-particle friction, the cohesion a contact gets when it forms after disturbance, rolling friction)
+fitted with GrainLearning's Bayesian filter
 (analysis/soil/bayes.py) to the direct shear box's c and φ and the collapse test's slope
 (configs/field/soil_targets.csv), every evaluation a YADE run of scripts/shear.py and scripts/collapse.py in its
 own folder, results/calibration/bench/<soil>/<id>/, reused when the filter asks for it again (the filter's
 samples repeat themselves: its random state is fixed), so a stopped calibration resumes. The holes never enter.
+The prior is the config's common ranges, or a soil's own narrower ones (`[soil_bounds.<soil>]`); the response
+surfaces (`response_surfaces`, `feasible_region`) say where in the common prior a soil's targets lie.
 """
 from __future__ import annotations
 
@@ -31,10 +34,25 @@ UNTESTABLE = 3         # a bench scene's exit code when it stopped the test itse
 SCENES_VERSION = 2     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
 
 
-def load_config(path: Path = CONFIG) -> dict:
-    """The calibration's settings and its parameters' prior ranges, checked."""
+def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
+    """The calibration's settings and its parameters' prior ranges, checked; with `soil`, the ranges its
+    `[soil_bounds.<soil>]` table narrows replace the common ones."""
     cfg = tomllib.loads(Path(path).read_text())
-    bench, bounds, fixed = cfg.get("bench", {}), cfg.get("bounds", {}), cfg.get("fixed", {})
+    bench, bounds, fixed = cfg.get("bench", {}), dict(cfg.get("bounds", {})), cfg.get("fixed", {})
+    per_soil = cfg.get("soil_bounds", {})
+    unknown = sorted(set(per_soil) - {"clay", "loam", "sand"})
+    if unknown:
+        raise ConfigError(f"{path}: [soil_bounds.{unknown[0]}]: allowed soils clay, loam, sand")
+    for name, own in per_soil.items():
+        stray = sorted(set(own) - set(bounds))
+        if stray:
+            raise ConfigError(f"{path}: soil_bounds.{name}.{stray[0]}: not in [bounds]; allowed "
+                              f"{', '.join(bounds)}")
+        for key, rng in own.items():
+            if len(rng) != 2 or not rng[0] < rng[1]:
+                raise ConfigError(f"{path}: soil_bounds.{name}.{key} = {rng}: allowed [lo, hi] with lo < hi")
+    if soil is not None:
+        bounds.update(per_soil.get(soil, {}))
     need = {"resolution", "size_mm", "stresses_kpa", "speed_m_s", "calibration_seed", "check_seeds", "samples",
             "iterations", "workers"}
     if need - set(bench):
@@ -168,7 +186,7 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     """The soil's posterior over cfg's bounds against its targets; writes results/calibration/bench/<soil>.csv
     (every evaluation with its iteration and last weight) and <soil>-posterior.json."""
     from analysis.soil.bayes import calibrate as bayes
-    cfg = cfg or load_config()
+    cfg = cfg or load_config(soil=soil)
     targets = load_targets(soil)
     seed = int(cfg["calibration_seed"])
     history = []
@@ -186,6 +204,7 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     table.loc[last, "weight_last"] = np.asarray(post["weights"])[-1] if np.ndim(post["weights"]) > 1 else post["weights"]
     summary = {k: post[k] for k in ("names", "mean", "cv", "most_probable")}
     summary["fixed"] = dict(cfg.get("fixed", {}))
+    summary["prior"] = {k: list(v) for k, v in cfg["bounds"].items()}
     summary["interval"] = weighted_intervals(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
     summary["correlation"] = weighted_correlation(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
     summary["targets"] = {r: [float(targets.loc[r, "lo"]), float(targets.loc[r, "hi"]), targets.loc[r, "source"]]
@@ -227,7 +246,7 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
     """The posterior mean's bench responses on each check packing against the targets' ranges; writes
     results/calibration/bench/<soil>-check.csv. Returns per response: the mean over packings, their SD and
     whether every packing lies inside the target's range."""
-    cfg = cfg or load_config()
+    cfg = cfg or load_config(soil=soil)
     targets = load_targets(soil)
     params = {k: float(v) for k, v in post["mean"].items()}
     rows = evaluate_all(soil, [(int(s), params) for s in cfg["check_seeds"]], cfg, out_dir)
@@ -291,7 +310,7 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
     fig.tight_layout()
     fig.savefig(paths[1], dpi=110)
     plt.close(fig)
-    return paths
+    return paths + surfaces_report(out_dir)
 
 
 POSTERIOR_HEAD = "# GrainLearning's posterior on the bench tests"
@@ -333,3 +352,95 @@ def write_posterior(soil: str, post: dict, check_result: dict, command: str, pat
     atomic_write(path, text + "\n" + posterior_block(soil, post, check_result, command))
     load_soil(path)
     return path
+
+
+SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction")
+
+
+def surface_terms(table: pd.DataFrame) -> pd.DataFrame:
+    """An evaluation's parameters as the response surfaces' terms: the intact bond and the bond a contact made
+    after disturbance gets (new-contact share × bond), both in kPa, the grains' friction and rolling friction."""
+    return pd.DataFrame({"bond_kpa": table["normal_cohesion"] / 1e3, "friction_deg": table["friction_deg"],
+                         "disturbed_bond_kpa": table["normal_cohesion"] * table["new_contact_cohesion"] / 1e3,
+                         "rolling_friction": table["rolling_friction"]})
+
+
+def response_surfaces(table: pd.DataFrame) -> pd.DataFrame:
+    """Each bench response fitted as a plane in SURFACE_TERMS over a soil's finished evaluations (least squares):
+    one row per response with its intercept, a coefficient per term, R² and the residual SD (the packing's and the
+    plane's misfit together). What each test answers to, and a cheap stand-in for the scenes over the prior.
+
+    >>> t = pd.DataFrame({"normal_cohesion": [1e5, 2e5, 3e5, 1e5, 2e5, 4e5], "friction_deg": [10, 20, 15, 30, 25, 12],
+    ...                   "new_contact_cohesion": [.01, .02, 0, .03, .01, .02], "rolling_friction": [0, .1, .2, .1, 0, .3]})
+    >>> t["c_kpa"] = 0.1 * t.normal_cohesion / 1e3 + 5; t["phi_deg"] = 20 + 0.5 * t.friction_deg
+    >>> t["collapse_deg"] = 30 + 2 * t.normal_cohesion * t.new_contact_cohesion / 1e3
+    >>> s = response_surfaces(t).set_index("response")
+    >>> round(s.loc["c_kpa", "bond_kpa"], 3), round(s.loc["phi_deg", "friction_deg"], 3), round(s.loc["collapse_deg", "r2"], 3)
+    (0.1, 0.5, 1.0)
+    """
+    ok = table.dropna(subset=list(RESPONSES))
+    X = np.column_stack([np.ones(len(ok)), surface_terms(ok).to_numpy(float)])
+    rows = []
+    for r in RESPONSES:
+        y = ok[r].to_numpy(float)
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        resid = y - X @ coef
+        spread = np.sum((y - y.mean()) ** 2)
+        rows.append({"response": r, "intercept": coef[0], **dict(zip(SURFACE_TERMS, coef[1:])), "n": len(ok),
+                     "r2": 1 - np.sum(resid ** 2) / spread if spread > 0 else math.nan,
+                     "resid_sd": float(np.std(resid, ddof=X.shape[1])) if len(ok) > X.shape[1] else math.nan})
+    return pd.DataFrame(rows)
+
+
+def feasible_region(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, n: int = 200_000,
+                    seed: int = 0) -> dict:
+    """Where in the prior (`bounds`, uniform) the surfaces put every response inside its target's range: the
+    share of the prior that does, and each parameter's 5, 50 and 95 % there (NaN when none does). Where the next
+    stage's prior belongs, not a posterior: the planes' misfit is left out.
+
+    >>> s = pd.DataFrame([{"response": "c_kpa", "intercept": 0.0, "bond_kpa": 0.1, "friction_deg": 0.0,
+    ...                    "disturbed_bond_kpa": 0.0, "rolling_friction": 0.0}])
+    >>> t = pd.DataFrame({"lo": [20.0], "hi": [30.0]}, index=["c_kpa"])
+    >>> r = feasible_region(s, t, {"normal_cohesion": (0, 1e6), "friction_deg": (10, 30),
+    ...                            "new_contact_cohesion": (0, 0.1), "rolling_friction": (0, 0.3)})
+    >>> round(r["share"], 2), [round(v / 1e3) for v in r["normal_cohesion"][::2]]
+    (0.1, [205, 295])
+    """
+    rng = np.random.default_rng(seed)
+    sample = pd.DataFrame({k: rng.uniform(lo, hi, n) for k, (lo, hi) in bounds.items()})
+    terms = surface_terms(sample).to_numpy(float)
+    inside = np.ones(n, bool)
+    for s in surfaces.itertuples():
+        pred = s.intercept + terms @ np.array([getattr(s, t) for t in SURFACE_TERMS])
+        inside &= (pred >= targets.loc[s.response, "lo"]) & (pred <= targets.loc[s.response, "hi"])
+    out = {"share": float(inside.mean())}
+    for k in bounds:
+        out[k] = [float(v) for v in np.percentile(sample.loc[inside, k], [5, 50, 95])] if inside.any() else [math.nan] * 3
+    return out
+
+
+def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> list[Path]:
+    """Every calibrated soil's response surfaces over its filter's and check's evaluations (surfaces.csv) and
+    where they meet all three of its targets inside the common prior (feasible.csv)."""
+    bounds = bounds or load_config()["bounds"]
+    rows, regions = [], []
+    for soil in ("clay", "loam", "sand"):
+        tables = [Path(out_dir) / f"{soil}{part}.csv" for part in ("", "-check")]
+        if not tables[0].exists():
+            continue
+        table = pd.concat([pd.read_csv(t, comment="#") for t in tables if t.exists()])
+        surf = response_surfaces(table).assign(soil=soil)
+        rows.append(surf)
+        region = feasible_region(surf, load_targets(soil), bounds)
+        regions += [{"soil": soil, "parameter": k, "p05": v[0], "p50": v[1], "p95": v[2], "prior_share": region["share"]}
+                    for k, v in region.items() if k != "share"]
+    if not rows:
+        return []
+    paths = [Path(out_dir) / "surfaces.csv", Path(out_dir) / "feasible.csv"]
+    note = "./holes calibrate --soil S --bench (its report)"
+    atomic_csv(pd.concat(rows)[["soil", "response", "intercept", *SURFACE_TERMS, "r2", "resid_sd", "n"]].round(5),
+               paths[0], f"{note}; each response a plane in the terms over the soil's filter and check evaluations")
+    atomic_csv(pd.DataFrame(regions).round(5), paths[1],
+               f"{note}; the share of the common prior where the planes meet all three targets, and each parameter's "
+               "5/50/95 % there")
+    return paths
