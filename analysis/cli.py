@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from analysis.commands import (cmd_bench, cmd_calibrate, cmd_calibrate_machine, cmd_calibration_report,
+from analysis.commands import (cmd_bench, cmd_budget, cmd_calibrate, cmd_calibrate_machine, cmd_calibration_report,
                                cmd_compare, cmd_cone_checks, cmd_cone_damage, cmd_measure, cmd_metrology_band,
                                cmd_params, cmd_pepper, cmd_pepper_frame, cmd_report, cmd_rings, cmd_study, cmd_theory,
                                run_scene)
@@ -150,6 +150,11 @@ def build_parser() -> argparse.ArgumentParser:
                    "(<out>/comparison/runs/) is not run: it is measured again from its kept grains (state.npz), or "
                    "its kept holes.csv is read if it has none; pool runs made elsewhere")
     p.set_defaults(func=cmd_compare)
+    p = sub.add_parser("budget", help="the error budget of a compared preset: each miss against the field split into "
+                       "grain size, model, measurement, machine, packing and soil (results/validation/)")
+    p.add_argument("--preset", default="validation_medium", help="a preset of results/comparison.csv (default "
+                   "validation_medium, the main job's)")
+    p.set_defaults(func=cmd_budget)
     p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
     p.add_argument("file", nargs="+", help="study file(s), e.g. configs/studies/slip.toml; several run as one batch")
     p.add_argument("--scheduler", type=scheduler_address,

@@ -115,6 +115,17 @@ def cmd_rings(args) -> int:
     return 0
 
 
+def cmd_budget(args) -> int:
+    from analysis.holes import budget_report
+    try:
+        for path in budget_report.run(args.preset):
+            print(f"wrote {path}")
+    except ConfigError as e:
+        print(f"budget: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
 def cmd_compare(args) -> int:
     from analysis.batch import compare_job
     try:

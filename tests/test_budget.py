@@ -39,3 +39,31 @@ def test_morris_screening_ranks_the_unknown_that_matters_first():
     problem, X = morris_design({"penetration": (70, 95), "spring": (0.5, 8), "preload": (0, 50)}, trajectories=20)
     ranks = morris(problem, X, 0.8 * X[:, 0] + 0.05 * X[:, 1] + 0 * X[:, 2])
     assert list(ranks) == ["penetration", "spring", "preload"] and ranks["preload"]["mu_star"] < 1e-9
+
+
+def test_the_budget_table_puts_each_part_from_its_source_on_made_up_results():
+    """Made-up comparison, holes of three packings, grain-size limits and machine design: the grain-size shift is the
+    mean at the preset's radius minus the limit, the packing's half-width t·SD/√n of the runs' means, the machine's
+    its slopes times the fit's half-intervals in quadrature, and the systematic parts add up to the miss."""
+    import pandas as pd
+    from analysis.holes import budget_report
+    comparison = pd.DataFrame([{"soil": "clay", "metric": "h1", "field_mean": 13.5, "sim_mean": 17.0, "band": 5.0,
+                                "calibration_target": False, "n_holes": 6, "n_runs": 3}])
+    holes = pd.DataFrame({"soil": "clay", "run": ["a", "a", "b", "b", "c", "c"], "found": True,
+                          "h1": [15.0, 17.0, 16.0, 18.0, 17.0, 19.0]})          # run means 16, 17, 18
+    grain = pd.DataFrame([{"metric": "h1", "radius_mm": 6.0, "mean": 20.0, "limit": 12.0, "limit_lo": 10.0,
+                           "limit_hi": 14.0}, {"metric": "h1", "radius_mm": 5.0, "mean": 18.0, "limit": 12.0,
+                                               "limit_lo": 10.0, "limit_hi": 14.0}])
+    design = pd.DataFrame({"run": list("wxyz"), "P": [70, 70, 90, 90], "stiffness": [1, 4, 1, 4], "found": True,
+                           "L0": 80.0, "L1": 50.0, "L2": 40.0, "L2_surface": 50.0,
+                           "h1": [10.0, 16.0, 20.0, 26.0]})                    # 0.5 mm/mm in P, 2 mm per N/mm in k
+    fit = pd.Series({"P_lo": 76.0, "P_hi": 84.0, "stiffness_lo": 1.0, "stiffness_hi": 3.0})
+    row = budget_report.table(comparison, holes, grain, 6.0, design, fit).iloc[0]
+    assert row.grain_size == pytest.approx(8.0) and row.model == pytest.approx(17.0 - 8.0 - 13.5)
+    assert row.grain_size + row.model == pytest.approx(row.miss)
+    assert row.packing == pytest.approx(4.303 * 1.0 / np.sqrt(3), rel=1e-3)
+    assert row.machine == pytest.approx(np.hypot(0.5 * 4.0, 2.0 * 1.0))
+    assert row.not_measured == "soil_parameters" and row.dominant == "grain_size"
+    one = budget_report.table(comparison, holes[holes.run == "a"], grain, 4.0, None, None).iloc[0]
+    assert np.isnan(one.packing) and np.isnan(one.grain_size) and np.isnan(one.machine)
+    assert one.not_measured == "grain_size, model, machine, soil_parameters, packing" and one.dominant == "measurement"

@@ -71,23 +71,29 @@ UNCERTAIN = ("measurement", "machine", "soil", "packing")
 
 def budget(sim_mean: float, field_mean: float, limit: float, **half_widths: float) -> dict:
     """One metric's miss split into its parts (module doc): `grain_size` + `model` = `miss`; each uncertain part
-    (UNCERTAIN, 95 % half-widths) and their quadrature sum `uncertain`; `resolved`: the miss exceeds it.
+    (UNCERTAIN, 95 % half-widths) and their quadrature sum `uncertain`; `resolved`: the miss exceeds it. A part not
+    measured (NaN: no r → 0 limit, an uncertain part not run) stays NaN, is left out of the sum and named in
+    `not_measured`; `dominant` is the largest measured part.
 
     >>> b = budget(66.0, 60.0, 64.0, measurement=1.0, machine=2.0, soil=2.0, packing=0.0)
     >>> b["miss"], b["grain_size"], b["model"], b["uncertain"], b["resolved"]
     (6.0, 2.0, 4.0, 3.0, True)
+    >>> b = budget(66.0, 60.0, float("nan"), measurement=1.0, machine=2.0)
+    >>> b["not_measured"], b["dominant"], b["uncertain"]
+    ('grain_size, model, soil, packing', 'machine', 2.23606797749979)
     """
     unknown = sorted(set(half_widths) - set(UNCERTAIN))
     if unknown:
         raise ValueError(f"budget: unknown part(s) {', '.join(unknown)}; allowed {', '.join(UNCERTAIN)}")
-    parts = {k: float(half_widths.get(k, 0.0)) for k in UNCERTAIN}
+    parts = {k: float(half_widths.get(k, math.nan)) for k in UNCERTAIN}
     miss = sim_mean - field_mean
-    uncertain = math.sqrt(sum(v ** 2 for v in parts.values()))
-    return {"miss": miss, "grain_size": sim_mean - limit, "model": limit - field_mean, **parts,
+    sizes = {"grain_size": sim_mean - limit, "model": limit - field_mean, **parts}
+    measured = {k: abs(v) for k, v in sizes.items() if math.isfinite(v)}
+    uncertain = math.sqrt(sum(v ** 2 for k, v in parts.items() if math.isfinite(v)))
+    return {"miss": miss, "grain_size": sizes["grain_size"], "model": sizes["model"], **parts,
             "uncertain": uncertain, "resolved": bool(abs(miss) > uncertain),
-            "dominant": max(("grain_size", "model", *UNCERTAIN),
-                            key=lambda k: abs(sim_mean - limit) if k == "grain_size" else
-                            abs(limit - field_mean) if k == "model" else parts[k])}
+            "dominant": max(measured, key=measured.get) if measured else "",
+            "not_measured": ", ".join(k for k in sizes if k not in measured)}
 
 
 MACHINE_UNKNOWNS = {"disk.penetration": (70.0, 95.0), "sleeve.stiffness": (0.5, 8.0), "sleeve.preload": (0.0, 50.0),

@@ -1,0 +1,153 @@
+"""The error budget of a validation preset (no YADE): every predicted metric's miss against the field split into
+its parts (analysis/holes/budget.py), each from the result that measures it:
+
+- grain size: the metric's mean at the preset's grain radius minus its r → 0 limit (results/validation/
+  grain_size.csv, the convergence study's clay hole), taken as the same shift in every soil;
+- measurement: the comparison's band (holes of known size carved in the same beds);
+- machine: the fitted P and spring rate's 95 % half-widths (the machine fit of the preset's reading of L2) times the
+  metric's slopes in P and k over the machine design's runs, in quadrature (linear propagation);
+- packing: the 95 % half-width of the mean over the preset's packings (Student's t over the runs' means), when it
+  ran two or more;
+- soil: the soil parameters' uncertainty through the runs, when a posterior's samples have been run (not yet).
+
+A part not measured stays empty and is named in the row; nothing is filled in.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.core.io import atomic_csv, read_table, stamp
+from analysis.core.schema import ROOT, ConfigError
+from analysis.holes.budget import budget
+from analysis.holes.compare import t975
+
+METRICS = ("L0", "L1", "L2", "L2_surface", "h1")
+OUT = ROOT / "results/validation"
+
+
+def grain_shift(grain: pd.DataFrame, radius_mm: float) -> dict:
+    """Per metric: the mean at `radius_mm` minus the r → 0 limit, with the shift's range over the limit's interval."""
+    out = {}
+    for metric, g in grain.groupby("metric"):
+        at = g[np.isclose(g.radius_mm, radius_mm)]
+        if len(at):
+            r = at.iloc[0]
+            out[metric] = (r["mean"] - r["limit"], r["mean"] - r["limit_hi"], r["mean"] - r["limit_lo"])
+    return out
+
+
+def machine_slopes(rows: pd.DataFrame, metrics=METRICS) -> dict:
+    """Per metric: its slopes in P (mm/mm) and spring rate (mm per N/mm) over the machine design's runs' means.
+
+    >>> rows = pd.DataFrame({"run": list("abcd"), "P": [70, 70, 90, 90], "stiffness": [1, 4, 1, 4], "found": True,
+    ...                      "L0": [80, 86, 100, 106], "L1": [50] * 4, "L2": [40] * 4, "L2_surface": [50] * 4, "h1": [10] * 4})
+    >>> [round(v, 3) for v in machine_slopes(rows)["L0"]]
+    [1.0, 2.0]
+    """
+    found = rows[rows.found.astype(bool)]
+    means = found.groupby("run").agg({"P": "first", "stiffness": "first", **{m: "mean" for m in metrics}})
+    if means.P.nunique() < 2 or means.stiffness.nunique() < 2:
+        return {}
+    X = np.column_stack([np.ones(len(means)), means.P, means.stiffness])
+    return {m: tuple(np.linalg.lstsq(X, means[m].to_numpy(float), rcond=None)[0][1:]) for m in metrics}
+
+
+def machine_half_width(slopes: tuple, fit: pd.Series) -> float:
+    """The machine's 95 % half-width in a metric: its slopes times the fit's half-intervals, in quadrature."""
+    if not slopes or not all(math.isfinite(float(fit.get(k, math.nan))) for k in ("P_lo", "P_hi", "stiffness_lo",
+                                                                                  "stiffness_hi")):
+        return math.nan
+    hP, hk = (fit.P_hi - fit.P_lo) / 2, (fit.stiffness_hi - fit.stiffness_lo) / 2
+    return float(math.hypot(slopes[0] * hP, slopes[1] * hk))
+
+
+def packing_half_width(holes: pd.DataFrame, metric: str) -> float:
+    """The 95 % half-width of the mean over the packings: t(n − 1) × SD of the runs' means / √n; NaN with one."""
+    means = holes[holes.found.astype(bool)].groupby("run")[metric].mean().dropna()
+    if len(means) < 2:
+        return math.nan
+    return float(t975(len(means) - 1) * means.std(ddof=1) / math.sqrt(len(means)))
+
+
+def table(comparison: pd.DataFrame, holes: pd.DataFrame, grain: pd.DataFrame, radius_mm: float,
+          machine_rows: pd.DataFrame | None, machine_fit: pd.Series | None) -> pd.DataFrame:
+    """One row per soil and metric of one preset's comparison: the miss, its parts and what was not measured."""
+    shifts = grain_shift(grain, radius_mm)
+    slopes = machine_slopes(machine_rows) if machine_rows is not None else {}
+    rows = []
+    for r in comparison[comparison.metric.isin(METRICS)].itertuples():
+        shift, shift_lo, shift_hi = shifts.get(r.metric, (math.nan,) * 3)
+        parts = {"measurement": float(r.band) if pd.notna(r.band) else math.nan,
+                 "machine": machine_half_width(slopes.get(r.metric), machine_fit) if machine_fit is not None else math.nan,
+                 "packing": packing_half_width(holes[holes.soil == r.soil], r.metric),
+                 "soil": math.nan}
+        b = budget(r.sim_mean, r.field_mean, r.sim_mean - shift, **parts)
+        b["soil_parameters"] = b.pop("soil")          # the part's column, beside the soil's name
+        b["not_measured"] = ", ".join("soil_parameters" if k == "soil" else k for k in b["not_measured"].split(", ") if k)
+        rows.append({**b, "soil": r.soil, "metric": r.metric, "calibration_target": bool(r.calibration_target),
+                     "field_mean": r.field_mean, "sim_mean": r.sim_mean, "n_holes": r.n_holes, "n_runs": r.n_runs,
+                     "grain_size_lo": shift_lo, "grain_size_hi": shift_hi})
+    return pd.DataFrame(rows)
+
+
+def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Path = ROOT / "results/comparison.csv",
+        machine_dir: Path = ROOT / "results/calibration") -> list[Path]:
+    """results/validation/error_budget.csv and error_budget.png for `preset`'s rows of the comparison."""
+    from analysis.core.config import load_preset, load_resolution
+    p = load_preset(preset)
+    comparison = read_table(comparison_path)
+    comparison = comparison[comparison.preset == preset]
+    if comparison.empty:
+        raise ConfigError(f"budget: {comparison_path} has no rows of preset {preset!r}: run `./holes compare "
+                          f"--preset {preset}` first")
+    holes = read_table(ROOT / "results/comparison" / preset / "holes.csv")
+    grain = read_table(OUT / "grain_size.csv")
+    radius_mm = 1000 * load_resolution(p.resolution).radius
+    machine_rows = machine_fit = None
+    if getattr(p, "machine", None) and (Path(machine_dir) / "machine_fit.csv").exists():
+        fits = read_table(Path(machine_dir) / "machine_fit.csv").set_index("variant")
+        if p.machine in fits.index:
+            machine_fit = fits.loc[p.machine]
+            machine_rows = read_table(Path(machine_dir) / "machine.csv")
+    t = table(comparison, holes, grain, radius_mm, machine_rows, machine_fit)
+    t = t[["soil", "metric", "calibration_target", "field_mean", "sim_mean", "n_holes", "n_runs", "miss", "grain_size",
+           "grain_size_lo", "grain_size_hi", "model", "measurement", "machine", "packing", "soil_parameters",
+           "uncertain", "resolved", "dominant", "not_measured"]]
+    command = f"./holes budget --preset {preset}"
+    path = Path(out) / "error_budget.csv"
+    atomic_csv(t.round(3), path, stamp(command) + f"; mm; the miss (sim − field) = grain_size + model; 95 % half-widths "
+               f"measurement, machine ({p.machine} fit), packing, soil; r = {radius_mm:g} mm")
+    return [path, picture(t, Path(out) / "error_budget.png", preset)]
+
+
+def picture(t: pd.DataFrame, path: Path, preset: str) -> Path:
+    """Per soil, each metric's miss beside its systematic parts and its uncertain parts' half-widths."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    soils = list(dict.fromkeys(t.soil))
+    parts = [("miss", "black"), ("grain_size", "tab:blue"), ("model", "tab:red"), ("measurement", "0.6"),
+             ("machine", "tab:green"), ("packing", "tab:purple"), ("soil_parameters", "tab:orange")]
+    fig, axes = plt.subplots(1, len(soils), figsize=(5 * len(soils), 4), squeeze=False, sharey=True)
+    width = 0.8 / len(parts)
+    for ax, soil in zip(axes[0], soils):
+        s = t[t.soil == soil].reset_index(drop=True)
+        for j, (part, colour) in enumerate(parts):
+            values = s[part].to_numpy(float)
+            ax.bar(np.arange(len(s)) + (j - len(parts) / 2 + 0.5) * width, np.nan_to_num(values), width,
+                   color=colour, label=part if soil == soils[0] else None,
+                   hatch="//" if part in ("measurement", "machine", "packing", "soil_parameters") else None)
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_xticks(range(len(s)), [m + (" (target)" if c else "") for m, c in zip(s.metric, s.calibration_target)],
+                      rotation=30, fontsize=8)
+        ax.set_title(f"{soil} ({preset})")
+    axes[0][0].set_ylabel("mm; hatched: 95 % half-widths")
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
