@@ -6,6 +6,7 @@ import os
 import signal
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -269,3 +270,37 @@ def test_export_batch_refuses_options_it_would_ignore(tmp_path, capsys):
     path = study_file(tmp_path, "e", {"slip": [0.0]})
     assert cli.main(["study", str(path), "--export-batch", str(tmp_path / "t.table"), "--no-run"]) == 2
     assert "--export-batch" in capsys.readouterr().err and not (tmp_path / "t.table").exists()
+
+
+def morris_file(tmp_path, morris: str) -> Path:
+    path = tmp_path / "screen.toml"
+    path.write_text('[study]\nname = "screen"\n[base]\n' + "".join(f"{k} = {json.dumps(v)}\n" for k, v in TINY.items())
+                    + morris)
+    return path
+
+
+MORRIS = ('[morris]\ntrajectories = 3\nlevels = 4\nseed = 0\n[morris.bounds]\n"disk.penetration" = [60.0, 75.0]\n'
+          '"sleeve.stiffness" = [1.0, 8.0]\n')
+
+
+def test_a_morris_section_makes_one_case_per_design_point_and_the_screening_ranks_them(tmp_path):
+    """The design's points become cases (3 trajectories over 2 fields: 9 points, some shared); a made-up table where L2 follows P and
+    hardly the spring ranks P first; a trajectory with a point not finished is left out of the screening."""
+    import pandas as pd
+    from analysis.batch.study import screening
+    head, cases = load_study(morris_file(tmp_path, MORRIS))
+    design = head["morris"]["design"]
+    assert len(design) == 9 and len(cases) == len({tuple(row) for row in design})      # a shared point runs once
+    table = pd.DataFrame([{**c.fields, "L2": 0.9 * c.fields["disk.penetration"] + 0.1 * c.fields["sleeve.stiffness"]}
+                          for c in cases])
+    ranks = screening(table, head["morris"], ["L2"])
+    assert list(ranks.field) == ["disk.penetration", "sleeve.stiffness"] and set(ranks.trajectories) == {3}
+    assert set(screening(table.iloc[1:], head["morris"], ["L2"]).trajectories) == {2}
+
+
+@pytest.mark.parametrize("change, message", [("levels = 4", "levels = 5"), ("trajectories = 3", "trajectories = 1"),
+                                             ('"sleeve.stiffness" = [1.0, 8.0]', '"sleeve.stiffness" = [8.0, 1.0]'),
+                                             ("seed = 0", "colour = 0")])
+def test_a_bad_morris_section_is_refused_naming_its_key(tmp_path, change, message):
+    with pytest.raises(ConfigError, match=r"morris|\[morris\]"):
+        load_study(morris_file(tmp_path, MORRIS.replace(change, message)))

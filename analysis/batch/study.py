@@ -7,6 +7,8 @@ A study file:
     [base]    fields every case shares (soil = "clay", preset = "quick", seed = 1, ...)
     [grid]    field = [values ...]: every combination            } one of the two, or both
     [[case]]  field = value ...: one case each                    } (grid cases, then the listed ones)
+    [morris]  trajectories, levels, seed and [morris.bounds] field = [lo, hi]: SALib's Morris design over those
+              fields, one case per design point (a screening: NAME-morris.csv ranks the fields by μ* per metric)
 Fields: soil, preset, seed, slip, speed_kmh, holes, lead_in, width, depth, mode, resolution, dt_safety, awake
 ([behind, ahead] mm), weight, depth_stop, disk_inertia, density_scale, tilled ([depth mm, density ratio]);
 disk.<field> and sleeve.<field> (configs/disk.toml) and soil.<field> (the soil's contact parameters).
@@ -53,9 +55,9 @@ STUDY_KEYS = {"name": "the stem of results/studies/NAME.csv and .png", "descript
 def load_study(path) -> tuple[dict, list[Case]]:
     """The study's header and its cases (each a dict of fields), every case checked before any runs."""
     data = read_toml(path)
-    unknown = sorted(set(data) - {"study", "base", "grid", "case"})
+    unknown = sorted(set(data) - {"study", "base", "grid", "case", "morris"})
     if unknown:
-        raise ConfigError(f"{path}: unknown section(s) {', '.join(unknown)}; allowed study, base, grid, case")
+        raise ConfigError(f"{path}: unknown section(s) {', '.join(unknown)}; allowed study, base, grid, case, morris")
     head = data.get("study", {})
     unknown = sorted(set(head) - set(STUDY_KEYS))
     if unknown:
@@ -74,8 +76,17 @@ def load_study(path) -> tuple[dict, list[Case]]:
             raise ConfigError(f"{path}: grid.{k} = {v!r}: allowed a non-empty list of values")
     cases = [{**base, **dict(zip(grid, combo))} for combo in itertools.product(*grid.values())] if grid else []
     cases += [{**base, **c} for c in data.get("case", [])]
+    if "morris" in data:
+        head = {**head, "morris": morris_design(path, data["morris"])}
+        seen = set()
+        for row in head["morris"]["design"]:
+            point = {**base, **dict(zip(head["morris"]["problem"]["names"], map(float, row)))}
+            key = tuple(sorted(point.items()))
+            if key not in seen:                    # trajectories may share a point: it runs once
+                seen.add(key)
+                cases.append(point)
     if not cases:
-        raise ConfigError(f"{path}: no cases (give [grid] lists or [[case]] tables)")
+        raise ConfigError(f"{path}: no cases (give [grid] lists, [[case]] tables or a [morris] design)")
     checked = []
     for i, c in enumerate(cases):
         try:
@@ -85,6 +96,66 @@ def load_study(path) -> tuple[dict, list[Case]]:
     if len({c.id for c in checked}) < len(checked):
         raise ConfigError(f"{path}: two cases have the same parameters")
     return head, checked
+
+
+MORRIS_KEYS = {"trajectories": "Morris trajectories (each one case per field + 1), at least 2",
+               "levels": "grid levels per field, an even number of at least 4", "seed": "the design's random state",
+               "bounds": "field = [lo, hi] for each field screened"}
+
+
+def morris_design(path, spec: dict) -> dict:
+    """The [morris] section checked, and SALib's design over its bounds: {"problem", "design", "levels"}."""
+    from analysis.holes.budget import morris_design as design
+    unknown = sorted(set(spec) - set(MORRIS_KEYS))
+    if unknown:
+        raise ConfigError(f"{path}: [morris] has unknown key(s) {', '.join(unknown)}: allowed {', '.join(MORRIS_KEYS)}")
+    trajectories, levels = spec.get("trajectories", 10), spec.get("levels", 4)
+    if not isinstance(trajectories, int) or trajectories < 2:
+        raise ConfigError(f"{path}: morris.trajectories = {trajectories!r}: allowed a whole number of at least 2")
+    if not isinstance(levels, int) or levels < 4 or levels % 2:
+        raise ConfigError(f"{path}: morris.levels = {levels!r}: allowed an even whole number of at least 4")
+    bounds = spec.get("bounds", {})
+    if len(bounds) < 2:
+        raise ConfigError(f"{path}: [morris.bounds] names {len(bounds)} field(s): allowed two or more")
+    for k, v in bounds.items():
+        if not (isinstance(v, list) and len(v) == 2 and all(isinstance(x, (int, float)) for x in v) and v[0] < v[1]):
+            raise ConfigError(f"{path}: morris.bounds.{k} = {v!r}: allowed [lo, hi] with lo < hi")
+    problem, X = design({k: tuple(map(float, v)) for k, v in bounds.items()}, trajectories, levels,
+                        int(spec.get("seed", 0)))
+    return {"problem": problem, "design": X, "levels": levels}
+
+
+def screening(table: pd.DataFrame, design: dict, metrics=METRICS) -> pd.DataFrame:
+    """The Morris screening of each metric over the finished trajectories: μ* and σ per field, ranked by μ*
+    (analysis/holes/budget.py `morris`); a trajectory with an unfinished point is left out. Empty with none whole.
+
+    >>> m = morris_design("x", {"trajectories": 4, "bounds": {"a": [0.0, 1.0], "b": [0.0, 1.0]}})
+    >>> t = pd.DataFrame([{"a": a, "b": b, "L2": 10 * a + b} for a, b in m["design"]])
+    >>> s = screening(t, m, ["L2"])
+    >>> list(s.field), list(s["rank"])
+    (['a', 'b'], [1, 2])
+    """
+    from analysis.holes.budget import morris
+    names, X = design["problem"]["names"], np.asarray(design["design"], float)
+    per = len(names) + 1
+    keys = table[names].to_numpy(float)
+    rows = []
+    for metric in metrics:
+        if metric not in table:
+            continue
+        y = np.full(len(X), np.nan)
+        for i, x in enumerate(X):
+            hit = np.flatnonzero(np.all(np.isclose(keys, x), axis=1))
+            if len(hit):
+                y[i] = table[metric].iloc[hit[0]]
+        whole = [t for t in range(len(X) // per) if np.isfinite(y[t * per:(t + 1) * per]).all()]
+        if not whole:
+            continue
+        take = np.concatenate([np.arange(t * per, (t + 1) * per) for t in whole])
+        ranks = morris(design["problem"], X[take], y[take], levels=design["levels"])
+        rows += [{"metric": metric, "field": f, "mu_star": v["mu_star"], "sigma": v["sigma"], "rank": i + 1,
+                  "trajectories": len(whole)} for i, (f, v) in enumerate(ranks.items())]
+    return pd.DataFrame(rows)
 
 
 def case_row(case: Case, runs_dir: Path, criteria: dict) -> dict:
@@ -130,6 +201,11 @@ def write_table(name: str, head: dict, cases: list[Case], rows: dict, runs_dir: 
     table = pd.DataFrame(measured)
     note = stamp(command)
     atomic_csv(table.round(4), out / f"{name}.csv", note)
+    if head.get("morris"):
+        screen = screening(table, head["morris"])
+        if len(screen):
+            atomic_csv(screen.round(4), out / f"{name}-morris.csv", note + "; SALib's Morris screening over the "
+                       "finished trajectories: mu_star, the mean size of a field's elementary effects (mm per its range)")
     comparison = ROOT / "results/comparison.csv"
     if head.get("against") and comparison.exists():
         effect = effect_table(table, head["against"], comparison)

@@ -97,7 +97,7 @@ def budget(sim_mean: float, field_mean: float, limit: float, **half_widths: floa
 
 
 MACHINE_UNKNOWNS = {"disk.penetration": (70.0, 95.0), "sleeve.stiffness": (0.5, 8.0), "sleeve.preload": (0.0, 50.0),
-                    "sleeve.outer_diameter": (70.0, 90.0), "sleeve.rest_from_tip": (20.0, 30.0)}
+                    "sleeve.outer_diameter": (70.0, 90.0), "sleeve.rest_from_tip": (22.0, 30.0)}
 
 
 def morris_design(bounds: dict = MACHINE_UNKNOWNS, trajectories: int = 10, levels: int = 4, seed: int = 0):
