@@ -165,6 +165,15 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     md = compare_report.markdown(table.drop(columns="preset"), preset, note + "\n\n" + cost)
     if order_text:
         md += f"\nSoil ordering (clay > loam > sand): {order_text}.\n"
+    diff = compare.soil_difference(holes, field)
+    if not diff.empty:
+        atomic_csv(diff.round(3), own / "soil_difference.csv", "clay's holes deeper than sand's, simulated (both "
+                   "readings of L2) and in the field, 95 % intervals; see analysis/holes/compare.py soil_difference")
+        md += ("\nClay's holes against sand's (L2, mm; 95 % interval): field "
+               f"{diff.field.iloc[0]:+.1f} [{diff.field_lo.iloc[0]:+.1f}, {diff.field_hi.iloc[0]:+.1f}]; simulated "
+               + "; ".join(f"{'from the surface' if r.metric == 'L2_surface' else 'from the subsided level'} "
+                           f"{r.sim:+.1f} [{r.sim_lo:+.1f}, {r.sim_hi:+.1f}] over the {r.basis}"
+                           for r in diff.itertuples()) + f" (`comparison/{preset}/soil_difference.csv`).\n")
     bound = float(table[table.metric == "L2"].theory_envelope.iloc[0])     # the swept envelope's L2
     reach = compare.depth_reach(field[field.soil.isin(set(holes.soil))], holes, bound)
     atomic_csv(reach, own / "depth_reach.csv", "L2 + h1 per field run and simulated soil; see "

@@ -323,6 +323,39 @@ def position_trend(holes: pd.DataFrame, metrics=VALIDATED) -> pd.DataFrame:
                                        "trend"])
 
 
+def soil_difference(holes: pd.DataFrame, field: pd.DataFrame, a: str = "clay", b: str = "sand",
+                    metrics=("L2", "L2_surface")) -> pd.DataFrame:
+    """How much deeper soil a's holes are than soil b's, simulated beside the field (whose L2 both readings are
+    set against), each with its 95 % interval (Welch, `shift`): the field's over its runs; the simulation's over
+    the packings' means when each soil has three or more, else over the holes (`basis`). Empty without both soils.
+
+    >>> field = pd.DataFrame({"soil": ["clay"] * 3 + ["sand"] * 3, "run": ["1", "2", "mean"] * 2,
+    ...                       "L2": [63.0, 61.0, 62.0, 55.0, 53.0, 54.0]})
+    >>> holes = pd.DataFrame({"soil": ["clay"] * 4 + ["sand"] * 4, "run": ["c"] * 4 + ["s"] * 4, "found": True,
+    ...                       "L2": [60, 62, 61, 61, 57, 59, 58, 58.0], "L2_surface": [70.0] * 8})
+    >>> d = soil_difference(holes, field).set_index("metric")
+    >>> d.loc["L2", "sim"], d.loc["L2", "field"], d.loc["L2", "basis"], d.loc["L2_surface", "sim"]
+    (3.0, 8.0, 'holes', 0.0)
+    """
+    runs = field[field.run.astype(str) != "mean"]
+    found = holes[holes.found.astype(bool)]
+    if not {a, b} <= set(found.soil) or not {a, b} <= set(runs.soil):
+        return pd.DataFrame()
+    rows = []
+    fa, fb = runs[runs.soil == a].L2, runs[runs.soil == b].L2
+    f = shift(fa.mean(), fa.std(ddof=1), len(fa), fb.mean(), fb.std(ddof=1), len(fb))
+    for m in metrics:
+        per_run = found.groupby(["soil", "run"])[m].mean()
+        basis = "packings" if min(len(per_run[a]), len(per_run[b])) >= 3 else "holes"
+        sa, sb = (per_run[s] if basis == "packings" else found[found.soil == s][m] for s in (a, b))
+        d = shift(sa.mean(), sa.std(ddof=1), len(sa), sb.mean(), sb.std(ddof=1), len(sb))
+        rows.append({"metric": m, "difference": f"{a} - {b}", "sim": d["shift"], "sim_lo": d["shift_lo"],
+                     "sim_hi": d["shift_hi"], "sim_resolved": d["resolved"], "basis": basis, "field": f["shift"],
+                     "field_lo": f["shift_lo"], "field_hi": f["shift_hi"],
+                     "field_in_sim_interval": bool(d["shift_lo"] <= f["shift"] <= d["shift_hi"])})
+    return pd.DataFrame(rows)
+
+
 def ordering(table: pd.DataFrame) -> dict:
     """The field's soil ordering clay > loam > sand, checked on the simulated means of L0, L2, pass rate;
     `tie`: two soils' simulated means are equal at the table's precision (0.1), as zero pass rates are, so the
