@@ -178,6 +178,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--against", default="validation_surface",
                    help="presets: the reference preset (default validation_surface); every preset in "
                    "results/comparison.csv with its calibrated machine is set against it")
+    p.add_argument("--strip", action="store_true", help="grain-size: from clay's validation strip at r = 6, 5 and 4 mm "
+                   "(results/comparison.csv) instead of bench convergence's one hole")
     p.add_argument("--run", help="collider, profile: a run folder with a checkpoint")
     p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000,
                    help="collider, profile: steps per setting (default 3000)")

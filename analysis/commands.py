@@ -265,7 +265,7 @@ def cmd_bench(args) -> int:
             return 2
     if args.what == "grain-size":
         from analysis.batch import bench_reference
-        return bench_reference.run_grain_size(args.out)
+        return bench_reference.run_grain_size(args.out, strip=args.strip)
     if args.what == "speed-vs-error":
         from analysis.batch import bench_reference
         return bench_reference.run_speed_vs_error(args.out)

@@ -67,3 +67,25 @@ def test_the_budget_table_puts_each_part_from_its_source_on_made_up_results():
     one = budget_report.table(comparison, holes[holes.run == "a"], grain, 4.0, None, None).iloc[0]
     assert np.isnan(one.packing) and np.isnan(one.grain_size) and np.isnan(one.machine)
     assert one.not_measured == "grain_size, model, machine, soil_parameters, packing" and one.dominant == "measurement"
+
+
+def test_the_validation_strips_at_three_grain_sizes_give_each_metrics_limit():
+    """Clay's rows of the three validation presets (r = 6, 5, 4 mm), made up linear in r with small scatter: the
+    limit of each metric comes back inside its interval, and a grain size is judged within 5 % only when it is."""
+    import pandas as pd
+    from analysis.batch.bench_reference import STRIP_METRICS, STRIP_PRESETS, grain_size, strip_means
+    field = {"L0": 91.8, "L1": 49.9, "L2": 62.1, "L2_surface": 62.1, "h1": 13.5}
+    limit = {"L0": 95.0, "L1": 48.0, "L2": 50.0, "L2_surface": 60.0, "h1": 8.0}
+    slope = {"L0": -2.0, "L1": 1.5, "L2": -1.0, "L2_surface": 0.2, "h1": 1.5}
+    radius = dict(zip(STRIP_PRESETS, (6.0, 5.0, 4.0)))
+    rows = [{"preset": p, "soil": s, "metric": m, "sim_mean": limit[m] + slope[m] * r, "sim_sd": 0.2, "n_holes": 16,
+             "n_runs": 2, "field_mean": field[m]} for p, r in radius.items() for m in STRIP_METRICS
+            for s in ("clay", "sand")]
+    means = strip_means(pd.DataFrame(rows))
+    assert len(means) == 3 * len(STRIP_METRICS) and set(means.radius_mm) == {4.0, 5.0, 6.0}
+    t = grain_size(means, STRIP_METRICS, "n")
+    for m in STRIP_METRICS:
+        g = t[t.metric == m].iloc[0]
+        assert g.limit_lo <= limit[m] <= g.limit_hi and g.limit == pytest.approx(limit[m], abs=0.01), g.to_dict()
+    at6 = t[(t.radius_mm == 6.0)].set_index("metric")
+    assert bool(at6.loc["L2_surface", "within_5pct"]) and not bool(at6.loc["h1", "within_5pct"])

@@ -284,8 +284,9 @@ MORRIS = ('[morris]\ntrajectories = 3\nlevels = 4\nseed = 0\n[morris.bounds]\n"d
 
 
 def test_a_morris_section_makes_one_case_per_design_point_and_the_screening_ranks_them(tmp_path):
-    """The design's points become cases (3 trajectories over 2 fields: 9 points, some shared); a made-up table where L2 follows P and
-    hardly the spring ranks P first; a trajectory with a point not finished is left out of the screening."""
+    """The design's points become cases (3 trajectories over 2 fields: 9 points, some shared); a made-up table
+    where L2 follows P and hardly the spring ranks P first; a trajectory with a point not finished is left out of
+    the screening."""
     import pandas as pd
     from analysis.batch.study import screening
     head, cases = load_study(morris_file(tmp_path, MORRIS))

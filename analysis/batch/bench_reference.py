@@ -232,22 +232,41 @@ def run_convergence(workers: int, threads: int, runs_dir=None, bed_dir=None, out
 # beside as limit_fitted_*), and each grain size judged against that limit: within 5 % of the field mean over the
 # limit's whole interval. The openings are left out: the
 # convergence runs kept no grains, so theirs are the former reading's (results/comparison/README.md).
+# `bench grain-size --strip` does the same for the validation strip itself: clay's holes of the validation presets
+# (STRIP_PRESETS: one strip, machine and step at r = 6, 5 and 4 mm) from results/comparison.csv, every metric the
+# comparison measures (the openings with the caliper), each mean's standard error over its holes.
 GRAIN_SIZE_METRICS = ("L2", "L2_surface", "h1")
+STRIP_PRESETS = ("validation_medium", "validation_surface", "validation_r4")
+STRIP_METRICS = ("L0", "L1", "L2", "L2_surface", "h1")
 
 
-def grain_size(conv: pd.DataFrame) -> pd.DataFrame:
-    """One row per metric and grain radius: the mean over packings, the r -> 0 limit with its interval, the
-    mean's distance from the limit in % of the field mean, and whether the whole interval is within 5 %."""
+def strip_means(comparison: pd.DataFrame, presets=STRIP_PRESETS, soil: str = "clay") -> pd.DataFrame:
+    """The validation strips' means in `bench convergence`'s columns (metric, radius_mm, mean, sd, n: holes)."""
+    from analysis.core.config import load_preset, load_resolution
+    rows = []
+    for preset in presets:
+        t = comparison[(comparison.preset == preset) & (comparison.soil == soil) & comparison.metric.isin(STRIP_METRICS)]
+        radius = 1000 * load_resolution(load_preset(preset).resolution).radius
+        rows += [{"metric": r.metric, "radius_mm": radius, "mean": r.sim_mean, "sd": r.sim_sd, "n": r.n_holes,
+                  "runs": r.n_runs, "field_mean": r.field_mean, "preset": preset} for r in t.itertuples()]
+    return pd.DataFrame(rows)
+
+
+def grain_size(conv: pd.DataFrame, metrics=GRAIN_SIZE_METRICS, n: str = "packings") -> pd.DataFrame:
+    """One row per metric and grain radius: the mean over packings (or over `n`'s count), the r -> 0 limit with
+    its interval, the mean's distance from the limit in % of the field mean, and whether the whole interval is
+    within 5 %."""
     from analysis.holes.budget import extrapolate, within_of_limit
     rows = []
-    for m in GRAIN_SIZE_METRICS:
+    for m in metrics:
         g = conv[conv.metric == m].sort_values("radius_mm")
-        se = g.sd / np.sqrt(g.packings)
+        se = g.sd / np.sqrt(g[n])
         lim = extrapolate(g.radius_mm, g["mean"], se, p=1.0, fit_order=False, n_boot=2000)
-        free = extrapolate(g.radius_mm, g["mean"], se, fit_order=True, n_boot=500)     # the order's sensitivity
+        free = (extrapolate(g.radius_mm, g["mean"], se, fit_order=True, n_boot=500) if len(g) >= 4   # the order's
+                else dict.fromkeys(("order", "m0", "m0_lo", "m0_hi"), np.nan))                  # sensitivity
         field = float(g.field_mean.iloc[0])
         for r in g.itertuples():
-            rows.append({"metric": m, "radius_mm": r.radius_mm, "mean": r.mean, "sd": r.sd, "packings": r.packings,
+            rows.append({"metric": m, "radius_mm": r.radius_mm, "mean": r.mean, "sd": r.sd, n: getattr(r, n),
                          "field_mean": field, "limit": lim["m0"], "limit_lo": lim["m0_lo"], "limit_hi": lim["m0_hi"],
                          "from_limit_pct": 100 * (r.mean - lim["m0"]) / field,
                          "within_5pct": within_of_limit(r.mean, lim, field), "fitted_order": free["order"],
@@ -256,23 +275,36 @@ def grain_size(conv: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def run_grain_size(out=None) -> int:
-    """results/validation/grain_size.csv and .png from results/bench/convergence.csv (no scene runs)."""
+def run_grain_size(out=None, strip: bool = False) -> int:
+    """results/validation/grain_size.csv and .png from results/bench/convergence.csv, or (`strip`)
+    grain_size_strip.csv and .png from the validation strips in results/comparison.csv (no scene runs)."""
     out = Path(out or ROOT / "results/validation")
-    source = ROOT / "results/bench/convergence.csv"
+    source = ROOT / ("results/comparison.csv" if strip else "results/bench/convergence.csv")
     if not source.exists():
-        print("bench grain-size: no results/bench/convergence.csv; `./holes bench convergence` makes it",
-              file=sys.stderr)
+        print(f"bench grain-size: no {source.relative_to(ROOT)}; `./holes "
+              f"{'compare --preset P' if strip else 'bench convergence'}` makes it", file=sys.stderr)
         return 1
-    t = grain_size(read_table(source))
-    note = stamp("./holes bench grain-size")
-    atomic_csv(t.round(3), out / "grain_size.csv", note + "; mm; the clay hole of bench convergence extrapolated "
-               "to r -> 0 (analysis/holes/budget.py)")
-    fig, axes = pyplot().subplots(1, len(GRAIN_SIZE_METRICS), figsize=(3.4 * len(GRAIN_SIZE_METRICS), 3.8))
-    for ax, m in zip(axes, GRAIN_SIZE_METRICS):
+    if strip:
+        means = strip_means(read_table(source))
+        radii = sorted(set(means.radius_mm)) if len(means) else []
+        if len(radii) < 2:
+            print(f"bench grain-size --strip: clay's validation strip at {len(radii)} grain size(s) in "
+                  f"results/comparison.csv; it needs two or more of {', '.join(STRIP_PRESETS)} "
+                  "(`./holes compare --preset P --soils clay --seeds 1,2`)", file=sys.stderr)
+            return 1
+        metrics, n, name, what = STRIP_METRICS, "n", "grain_size_strip", "clay's validation strip"
+        t = grain_size(means, metrics, n)
+    else:
+        metrics, n, name, what = GRAIN_SIZE_METRICS, "packings", "grain_size", "the clay hole of bench convergence"
+        t = grain_size(read_table(source))
+    note = stamp("./holes bench grain-size" + (" --strip" if strip else ""))
+    atomic_csv(t.round(3), out / f"{name}.csv", note + f"; mm; {what} extrapolated to r -> 0 (analysis/holes/budget.py)"
+               + ("; n: holes" if strip else ""))
+    fig, axes = pyplot().subplots(1, len(metrics), figsize=(3.4 * len(metrics), 3.8))
+    for ax, m in zip(axes, metrics):
         g = t[t.metric == m]
-        ax.errorbar(g.radius_mm, g["mean"], yerr=g.sd / np.sqrt(g.packings) * 2, fmt="o", capsize=3,
-                    label="mean, 95 % of the packings")
+        ax.errorbar(g.radius_mm, g["mean"], yerr=g.sd / np.sqrt(g[n]) * 2, fmt="o", capsize=3,
+                    label="mean, 95 %")
         rr = np.linspace(0, g.radius_mm.max(), 50)
         first = g.iloc[0]
         ax.fill_between([0, 0.3], first.limit_lo, first.limit_hi, color="C3", alpha=0.3, label="r → 0, 95 %")
@@ -281,7 +313,7 @@ def run_grain_size(out=None) -> int:
         ax.axhline(first.field_mean, color="k", ls=":", lw=1, label="field mean")
         ax.set(xlabel="grain radius r, mm", ylabel=f"{m}, mm", xlim=(-0.2, g.radius_mm.max() + 0.5))
     axes[0].legend(fontsize=6)
-    save(fig, out / "grain_size.png", f"the grain size's share: the clay hole extrapolated to r → 0\n{note}")
+    save(fig, out / f"{name}.png", f"the grain size's share: {what} extrapolated to r → 0\n{note}")
     print(t.round(2).to_string(index=False))
     return 0
 
