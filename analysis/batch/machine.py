@@ -214,7 +214,7 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
             tables.append(run_rows(c, kept / c.id))
         else:
             say(f"calibrate-machine: {c.id} ({c.label()}) has no finished run; left out")
-    command = f"./holes calibrate-machine {Path(design).relative_to(ROOT) if Path(design).is_absolute() else design}"
+    command = f"./holes calibrate-machine {shown(design)}"
     if not tables:
         say("calibrate-machine: no case has finished; nothing written")
         return 1
@@ -225,7 +225,7 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
                stamp(command) + f"; fitted on clay's field means only (L2 {want['surface']:g}, h1 {want['h1']:g} mm)")
     machine_path = Path(machine_path) if machine_path else (ROOT / MACHINE if out == ROOT / "results/calibration"
                                                             else out / "machine.toml")
-    written = write_machine(table, cases, machine_path, stamp(command), want)
+    written = write_machine(table, cases, machine_path, stamp(command), want, out / "machine_fit.csv")
     if written:
         say(f"calibrate-machine: {', '.join(written)} written to {machine_path}")
         if machine_path == ROOT / MACHINE:              # the parameter page shows the configs' values
@@ -240,7 +240,14 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
     return 1 if failures else 0
 
 
-def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want: dict) -> list[str]:
+def shown(path: Path) -> str:
+    """A path as the project names it: relative to its root when inside it."""
+    path = Path(path)
+    return str(path.relative_to(ROOT)) if path.is_absolute() and path.is_relative_to(ROOT) else str(path)
+
+
+def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want: dict,
+                  fit_path: Path = ROOT / "results/calibration/machine_fit.csv") -> list[str]:
     """Each variant with a fitted P and spring rate as a section of configs/machine.toml: the design's other
     tool fields (the sleeve's rest, travel, preload: the same in every case) and the fitted two, rounded to
     0.1 mm and 0.01 N/mm, with the fit's status, intervals and source. Returns the variants written."""
@@ -261,7 +268,7 @@ def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want:
         values = {**tool, P_KEY: round(float(r.P), 1), K_KEY: round(float(r.stiffness), 2)}
         lines += [f"[{r.variant}]", f'meaning = "{r.meaning}"', f'status = "{r.status}"',
                   f'source = "calibrated on clay, seed 001 Table 3 (L2 {want["surface"]:g}, h1 {want["h1"]:g} mm): '
-                  f'results/calibration/machine_fit.csv, {r.runs} runs, {r.holes} holes"',
+                  f'{shown(fit_path)}, {r.runs} runs, {r.holes} holes"',
                   f"P_interval_mm = [{r.P_lo:.1f}, {r.P_hi:.1f}]",
                   f"stiffness_interval_n_per_mm = [{r.stiffness_lo:.2f}, {r.stiffness_hi:.2f}]",
                   f"[{r.variant}.tool]", *(f'"{k}" = {v:g}' for k, v in values.items()), ""]
