@@ -160,6 +160,7 @@ def fit(rows: pd.DataFrame, want: dict, n_boot: int = 2000, seed: int = 0) -> pd
     found = rows[rows.found.astype(bool)]
     means = run_means(found)
     out = []
+    draws = None                    # the bootstrap's resampled means, drawn once and solved for every variant
     for variant, meaning in VARIANTS.items():
         row = {"variant": variant, "meaning": meaning, "target_L2_surface": want[variant], "target_h1": want["h1"],
                "runs": len(means), "holes": len(found),
@@ -169,8 +170,10 @@ def fit(rows: pd.DataFrame, want: dict, n_boot: int = 2000, seed: int = 0) -> pd
                         f"{means.stiffness.nunique()} spring rate(s) in {len(means)} run(s); it needs 2, 2 and 3"})
             continue
         P, k, a, b = _solve(means, want, variant)
-        rng = np.random.default_rng(seed)
-        boot = np.array([_solve(run_means(resample(found, rng)), want, variant)[:2] for _ in range(n_boot)])
+        if draws is None:
+            rng = np.random.default_rng(seed)
+            draws = [run_means(resample(found, rng)) for _ in range(n_boot)]
+        boot = np.array([_solve(d, want, variant)[:2] for d in draws])
         interval_P = (np.nanpercentile(boot[:, 0], 2.5), np.nanpercentile(boot[:, 0], 97.5))
         interval_k = (np.nanpercentile(boot[:, 1], 2.5), np.nanpercentile(boot[:, 1], 97.5))
         X = np.column_stack([np.ones(len(means)), means.P, means.stiffness])
