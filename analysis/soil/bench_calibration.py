@@ -37,34 +37,30 @@ SCENES_VERSION = 2     # raised whenever scripts/shear.py or scripts/collapse.py
 def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
     """The calibration's settings and its parameters' prior ranges, checked; with `soil`, the ranges its
     `[soil_bounds.<soil>]` table narrows replace the common ones."""
+    from analysis.core.soil_config import SOIL_FIELDS, SOILS
     cfg = tomllib.loads(Path(path).read_text())
     bench, bounds, fixed = cfg.get("bench", {}), dict(cfg.get("bounds", {})), cfg.get("fixed", {})
     per_soil = cfg.get("soil_bounds", {})
-    unknown = sorted(set(per_soil) - {"clay", "loam", "sand"})
+    unknown = sorted(set(per_soil) - set(SOILS))
     if unknown:
-        raise ConfigError(f"{path}: [soil_bounds.{unknown[0]}]: allowed soils clay, loam, sand")
-    for name, own in per_soil.items():
-        stray = sorted(set(own) - set(bounds))
-        if stray:
-            raise ConfigError(f"{path}: soil_bounds.{name}.{stray[0]}: not in [bounds]; allowed "
-                              f"{', '.join(bounds)}")
-        for key, rng in own.items():
-            if len(rng) != 2 or not rng[0] < rng[1]:
-                raise ConfigError(f"{path}: soil_bounds.{name}.{key} = {rng}: allowed [lo, hi] with lo < hi")
-    if soil is not None:
-        bounds.update(per_soil.get(soil, {}))
+        raise ConfigError(f"{path}: [soil_bounds.{unknown[0]}]: allowed soils {', '.join(SOILS)}")
     need = {"resolution", "size_mm", "stresses_kpa", "speed_m_s", "calibration_seed", "check_seeds", "samples",
             "iterations", "workers"}
     if need - set(bench):
         raise ConfigError(f"{path}: [bench] lacks {', '.join(sorted(need - set(bench)))}")
-    for name, rng in bounds.items():
-        if len(rng) != 2 or not rng[0] < rng[1]:
-            raise ConfigError(f"{path}: bounds.{name} = {rng}: allowed [lo, hi] with lo < hi")
+    for where, ranges in {"bounds": bounds, **{f"soil_bounds.{n}": own for n, own in per_soil.items()}}.items():
+        stray = sorted(set(ranges) - set(bounds))          # a soil narrows the common parameters only
+        if stray:
+            raise ConfigError(f"{path}: {where}.{stray[0]}: not in [bounds]; allowed {', '.join(bounds)}")
+        for name, rng in ranges.items():
+            if len(rng) != 2 or not rng[0] < rng[1]:
+                raise ConfigError(f"{path}: {where}.{name} = {rng}: allowed [lo, hi] with lo < hi")
+    if soil is not None:
+        bounds.update(per_soil.get(soil, {}))
     if len(bounds) < 3:
         raise ConfigError(f"{path}: [bounds] names {len(bounds)} parameters: allowed three or more")
     if set(fixed) & set(bounds):
         raise ConfigError(f"{path}: {', '.join(sorted(set(fixed) & set(bounds)))} both fixed and calibrated: allowed one")
-    from analysis.core.soil_config import SOIL_FIELDS
     unknown = sorted((set(fixed) | set(bounds)) - set(SOIL_FIELDS))
     if unknown:
         raise ConfigError(f"{path}: {', '.join(unknown)}: allowed soil contact parameters {', '.join(SOIL_FIELDS)}")
@@ -423,8 +419,9 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
     """Every calibrated soil's response surfaces over its filter's and check's evaluations (surfaces.csv) and
     where they meet all three of its targets inside the common prior (feasible.csv)."""
     bounds = bounds or load_config()["bounds"]
+    from analysis.core.soil_config import SOILS
     rows, regions = [], []
-    for soil in ("clay", "loam", "sand"):
+    for soil in SOILS:
         tables = [Path(out_dir) / f"{soil}{part}.csv" for part in ("", "-check")]
         if not tables[0].exists():
             continue
