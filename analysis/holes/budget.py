@@ -105,7 +105,12 @@ def morris_design(bounds: dict = MACHINE_UNKNOWNS, trajectories: int = 10, level
     run, one column per unknown)."""
     from SALib.sample import morris as sample
     problem = {"num_vars": len(bounds), "names": list(bounds), "bounds": [list(b) for b in bounds.values()]}
-    return problem, sample.sample(problem, trajectories, num_levels=levels, seed=seed)
+    state = np.random.get_state()       # SALib draws from numpy's global generator and seeds it only when the seed
+    np.random.seed(seed)                # is not 0: seeded here, every seed (0 too) gives one design, and the
+    try:                                # caller's random state is left as it was
+        return problem, sample.sample(problem, trajectories, num_levels=levels)
+    finally:
+        np.random.set_state(state)
 
 
 def morris(problem: dict, design, outputs, levels: int = 4, seed: int = 0) -> dict:
