@@ -139,15 +139,12 @@ def screening(table: pd.DataFrame, design: dict, metrics=METRICS) -> pd.DataFram
     names, X = design["problem"]["names"], np.asarray(design["design"], float)
     per = len(names) + 1
     keys = table[names].to_numpy(float)
+    row_of = [next(iter(np.flatnonzero(np.all(np.isclose(keys, x), axis=1))), None) for x in X]   # None: not run
     rows = []
     for metric in metrics:
         if metric not in table:
             continue
-        y = np.full(len(X), np.nan)
-        for i, x in enumerate(X):
-            hit = np.flatnonzero(np.all(np.isclose(keys, x), axis=1))
-            if len(hit):
-                y[i] = table[metric].iloc[hit[0]]
+        y = np.array([np.nan if i is None else table[metric].iloc[i] for i in row_of], float)
         whole = [t for t in range(len(X) // per) if np.isfinite(y[t * per:(t + 1) * per]).all()]
         if not whole:
             continue
