@@ -113,10 +113,13 @@ def run_rows(case, folder: Path) -> pd.DataFrame:
                          "wall_s": summary["wall_s"]})
 
 
-def _solve(means: pd.DataFrame, want: dict, variant: str):
-    X = np.column_stack([np.ones(len(means)), means.P, means.stiffness])
-    a = np.linalg.lstsq(X, means.L2_surface.to_numpy(), rcond=None)[0]
-    b = np.linalg.lstsq(X, means.h1.to_numpy(), rcond=None)[0]
+def _solve(means, want: dict, variant: str):
+    """(P, k) where the planes through the run means (columns P, stiffness, L2_surface, h1: a frame, or an array in
+    that order) meet the variant's targets, and the two planes' coefficients."""
+    m = np.asarray(means[list(MEAN_COLUMNS)] if isinstance(means, pd.DataFrame) else means, float)
+    X = np.column_stack([np.ones(len(m)), m[:, 0], m[:, 1]])
+    a = np.linalg.lstsq(X, m[:, 2], rcond=None)[0]
+    b = np.linalg.lstsq(X, m[:, 3], rcond=None)[0]
     A = np.array([[a[1], a[2]], [b[1], b[2]]])
     if abs(np.linalg.det(A)) < 1e-12:
         return math.nan, math.nan, a, b
@@ -124,17 +127,24 @@ def _solve(means: pd.DataFrame, want: dict, variant: str):
     return float(P), float(k), a, b
 
 
-def resample(found: pd.DataFrame, rng) -> pd.DataFrame:
-    """One bootstrap draw of the design's holes: at each design point its runs (packings) drawn with replacement,
-    then each drawn run's holes with replacement; so a point's interval carries the packings' scatter where it has
-    two or more, and the holes' alone where it has one."""
-    parts = []
-    for _, point in found.groupby(["P", "stiffness"]):
-        runs = [g for _, g in point.groupby("run")]
-        for j, i in enumerate(rng.integers(0, len(runs), len(runs))):
-            g = runs[i]
-            parts.append(g.iloc[rng.integers(0, len(g), len(g))].assign(run=f"{g.run.iloc[0]}#{j}"))
-    return pd.concat(parts)
+MEAN_COLUMNS = ("P", "stiffness", "L2_surface", "h1")
+
+
+def resampled_means(found: pd.DataFrame, rng, n: int) -> np.ndarray:
+    """n bootstrap draws of the design's run means, shape (n, runs, 4) in MEAN_COLUMNS' order: at each design point
+    its runs (packings) drawn with replacement, then each drawn run's holes with replacement; so a point's
+    interval carries the packings' scatter where it has two or more, and the holes' alone where it has one."""
+    points = [[g[list(MEAN_COLUMNS)].to_numpy(float) for _, g in point.groupby("run")]
+              for _, point in found.groupby(["P", "stiffness"])]
+    draws = np.empty((n, sum(len(runs) for runs in points), len(MEAN_COLUMNS)))
+    for d in range(n):
+        row = 0
+        for runs in points:
+            for i in rng.integers(0, len(runs), len(runs)):
+                holes = runs[i]
+                draws[d, row] = np.nanmean(holes[rng.integers(0, len(holes), len(holes))], axis=0)
+                row += 1
+    return draws
 
 
 def run_means(found: pd.DataFrame) -> pd.DataFrame:
@@ -156,7 +166,7 @@ def status_of(P: float, k: float, interval_P, interval_k, means: pd.DataFrame) -
 
 def fit(rows: pd.DataFrame, want: dict, n_boot: int = 2000, seed: int = 0) -> pd.DataFrame:
     """Per variant: the fitted P and spring rate with 95 % intervals (a bootstrap over each design point's packings
-    and their holes, `resample`), the two linear models' coefficients and residual SDs, and a status (`status_of`)."""
+    and their holes, `resampled_means`), the two linear models' coefficients and residual SDs, and a status (`status_of`)."""
     found = rows[rows.found.astype(bool)]
     means = run_means(found)
     out = []
@@ -172,7 +182,7 @@ def fit(rows: pd.DataFrame, want: dict, n_boot: int = 2000, seed: int = 0) -> pd
         P, k, a, b = _solve(means, want, variant)
         if draws is None:
             rng = np.random.default_rng(seed)
-            draws = [run_means(resample(found, rng)) for _ in range(n_boot)]
+            draws = resampled_means(found, rng, n_boot)
         boot = np.array([_solve(d, want, variant)[:2] for d in draws])
         interval_P = (np.nanpercentile(boot[:, 0], 2.5), np.nanpercentile(boot[:, 0], 97.5))
         interval_k = (np.nanpercentile(boot[:, 1], 2.5), np.nanpercentile(boot[:, 1], 97.5))
