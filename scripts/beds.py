@@ -23,6 +23,8 @@ long and wide (`tile`). Every grain keeps its contacts, so the tiled bed is sett
 different n share one packing: the paired width check of the cone index, where only the cell differs.
 
 Beds are keyed by soil (its settling parameters), resolution, size, sides and seed: results/cache/beds/<key>.npz + .json.
+A new bed is settled under a lock (<key>.lock, `analysis.core.io.held`): a second run that needs it meanwhile waits
+and loads it.
 """
 from __future__ import annotations
 
@@ -41,7 +43,7 @@ from analysis.core.schema import ConfigError
 from analysis.core.soil_config import load_soil, parse_overrides, soil_with
 from analysis.core.bed_spec import (BED_DIR, bed_key, check_grains_fit, check_graded, check_size, check_tiles,  # noqa: E402
                                mean_volume, zones)
-from analysis.core.io import atomic_write  # noqa: E402
+from analysis.core.io import atomic_write, held  # noqa: E402
 
 SETTLE_UNBALANCED = 0.01     # settled when mean unbalanced force / mean contact force falls below this
 SETTLE_MIN_TIME = 0.05       # s of deposition before the criterion is checked
@@ -131,7 +133,15 @@ def build(soil_name: str, resolution: str, size_mm, seed: int = 1, threads: int 
         return tile(build(soil_name, resolution, size_mm, seed, threads, quiet, bed_dir, overrides, lateral),
                     tiles, out)
     log = (lambda *a: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    with held(out.with_suffix(".lock"), log):      # two runs needing one new bed: one settles it, the other waits
+        if out.exists() and out.with_suffix(".json").exists():
+            check_cached(out, soil)
+            return out
+        return settle_bed(soil, res, size, key, seed, threads, lateral, out, log)
 
+
+def settle_bed(soil, res: Resolution, size, key: str, seed: int, threads: int, lateral: str, out: Path, log) -> Path:
+    """Deposit, level and settle a new bed (the module's steps) and save it to `out`."""
     from scripts.yadeboot import boot
     boot(threads)
     import numpy as np

@@ -254,3 +254,42 @@ def test_a_cached_bed_settled_for_another_table2_is_refused(tmp_path):
         else:
             with pytest.raises(ConfigError, match="settled for a dry bulk density"):
                 check_cached(bed, clay)
+
+
+def test_a_new_bed_is_settled_by_one_process_while_another_waits(tmp_path, monkeypatch):
+    """Two runs that need the same new bed: the one holding its lock settles it; the other waits and then loads
+    the bed the first saved, settling none itself. A lock whose process has died is taken over."""
+    import socket
+    import threading
+    from analysis.core.bed_spec import bed_key
+    from analysis.core.config import load_resolution
+    from analysis.core.io import held
+    from scripts import beds
+    clay = load_soil("clay")
+    out = tmp_path / f"{bed_key(clay, load_resolution('tiny'), (0.1, 0.1, 0.06), 1)}.npz"
+    lock = out.with_suffix(".lock")
+    lock.write_text(f"{socket.gethostname()} {__import__('os').getpid()}")     # a live process is settling it
+
+    def the_other_process_saves_it():
+        beds.save(out, np.zeros((3, 3)), np.full(3, 0.002), {"target_dry_bulk_density": clay.bulk_density,
+                                                              "wet_bulk_density": clay.wet_density})
+        lock.unlink()
+    threading.Timer(0.5, the_other_process_saves_it).start()
+    monkeypatch.setattr(beds, "settle_bed", lambda *a: pytest.fail("settled a bed another process was settling"))
+    assert beds.build("clay", "tiny", (100.0, 100.0, 60.0), bed_dir=tmp_path, quiet=True) == out
+    assert not lock.exists()
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    lock.write_text(f"{socket.gethostname()} {dead.stdout.strip()}")
+    order = []
+    with held(lock, poll_s=0.05):                       # the dead process's lock is taken over at once
+        order.append("first")
+        def wait_then_note():
+            with held(lock, poll_s=0.05):
+                order.append("second")
+        waiter = threading.Thread(target=wait_then_note)
+        waiter.start()
+        waiter.join(0.3)
+        assert waiter.is_alive() and order == ["first"]  # a held lock keeps the other waiting
+    waiter.join(5)
+    assert order == ["first", "second"]

@@ -46,7 +46,7 @@ def hard_runs(scene_dirs):
     """Every case's finished process, two at a time (one thread each), in CASES' order: both workers are busy
     from the start; while the first case settles the clay strip (when no earlier test did), the other worker
     settles the sand, coarse and deeper strips, so the four cases sharing the clay strip normally start after
-    it is cached (a race only costs time: beds are written atomically)."""
+    it is cached (a case needing a bed another is settling waits for it: the bed's lock, scripts/beds.py)."""
     with ThreadPoolExecutor(max_workers=2) as pool:
         futures = {name: pool.submit(scene, scene_dirs, name) for name in CASES}
         done = {name: f.result() for name, f in futures.items()}

@@ -1,13 +1,16 @@
-"""Small I/O helpers: atomic writes and the provenance line every result carries."""
+"""Small I/O helpers: atomic writes, a file lock between processes and the provenance line every result carries."""
 from __future__ import annotations
 
 import datetime
 import functools
 import os
 import platform
+import socket
 import subprocess
 import sys
 import threading
+import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import pandas as pd
@@ -93,6 +96,57 @@ def atomic_csv(df: pd.DataFrame, path: Path, note: str | None = None):
     """CSV with an optional leading `# note` comment line (read back with `read_table`)."""
     body = df.to_csv(index=False)
     atomic_write(path, (f"# {note}\n" if note else "") + body)
+
+
+@contextmanager
+def held(lock: Path, log=None, poll_s: float = 2.0):
+    """Hold `lock` for the block: a file made only if absent (O_EXCL), naming this host and process, removed after.
+    While another live process holds it, wait (saying so once); a lock whose process on this host has died is
+    taken over. For work two processes would otherwise both do, such as settling one bed."""
+    lock = Path(lock)
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    told = False
+    while True:
+        try:
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            if _abandoned(lock):
+                lock.unlink(missing_ok=True)
+                continue
+            if log and not told:
+                log(f"waiting for {lock.name}: held by {_holder(lock) or 'another process'}")
+                told = True
+            time.sleep(poll_s)
+            continue
+        with os.fdopen(fd, "w") as f:
+            f.write(f"{socket.gethostname()} {os.getpid()}")
+        break
+    try:
+        yield
+    finally:
+        lock.unlink(missing_ok=True)
+
+
+def _holder(lock: Path) -> str:
+    try:
+        return lock.read_text().strip()
+    except OSError:
+        return ""
+
+
+def _abandoned(lock: Path) -> bool:
+    """The lock names a process on this host that no longer runs (a lock still being written, or held on another
+    host, is not abandoned)."""
+    parts = _holder(lock).split()
+    if len(parts) != 2 or parts[0] != socket.gethostname() or not parts[1].isdigit():
+        return False
+    try:
+        os.kill(int(parts[1]), 0)
+    except ProcessLookupError:
+        return True
+    except PermissionError:
+        return False
+    return False
 
 
 def read_table(path) -> pd.DataFrame:
