@@ -36,16 +36,16 @@ SIDE_SCENES = {                                 # name: (arguments, whether the 
     # two holes: the slip between them covers one whole pitch, every phase of entry and exit once (over the
     # whole run the next punch's entry at the end brakes the disk: slip_out -0.15 here against -0.06)
     "low-resistance": ([*FREE, "--holes", "2", "--set", "normal_cohesion=0", "--set", "shear_cohesion=0"], True),
-    "light": ([*FREE, "--depth", "160", "--weight", "100"], True),
+    "light": ([*FREE, "--depth", "120", "--weight", "100"], True),         # heavy's strip
     # the punch after the hole now enters soil and catches a heavy disk: in the 160 mm strip 2000 N sank it 46.9 mm
     # and 4000 N 64.4 mm, neither to the floor; in a 120 mm strip 4000 N reaches the floor at t = 0.218 s
     "heavy": ([*FREE, "--depth", "120", "--weight", "4000"], False),
     # the coarsest grains (800 of them, about a minute): the side scenes must end within test_compare's scene
     "periodic": (["--soil", "clay", "--holes", "1", "--lead-in", "0", "--threads", "1", "--lateral", "periodic",
                   "--width", "160", "--resolution", "coarse"], True),
-    # the coarse test strip (lead-in + 2 holes) with the far field asleep, and the same strip all awake
-    "asleep": (["--soil", "clay", "--threads", "1", "--resolution", "coarse", "--awake", "60,120"], True),
-    "awake": (["--soil", "clay", "--threads", "1", "--resolution", "coarse"], True),
+    # the coarse test strip (a lead-in and 2 holes) with the far field asleep, and the same strip all awake
+    "asleep": (["--soil", "clay", "--threads", "1", "--resolution", "coarse", "--lead-in", "1", "--awake", "60,120"], True),
+    "awake": (["--soil", "clay", "--threads", "1", "--resolution", "coarse", "--lead-in", "1"], True),
     # a graded bed (r = 6 mm round the tools, 10 mm elsewhere) on a strip wide enough for its 90 mm fine zone
     "graded": (["--soil", "clay", "--holes", "1", "--lead-in", "0", "--threads", "1", "--resolution", "tiny_graded",
                 "--width", "140"], True),
@@ -54,7 +54,7 @@ SIDE_SCENES = {                                 # name: (arguments, whether the 
 
 @pytest.fixture(scope="module")
 def two_holes(scene_dirs):
-    """The clay test strip: a lead-in hole and two measured ones (shared with test_compare, which reuses it)."""
+    """The clay test strip: two measured holes (shared with test_compare, which reuses it)."""
     # one thread: the scene is deterministic (contact order on two threads varies from run to run)
     summary = json.loads(run_scene(None, "--soil", "clay", "--threads", "1", dirs=scene_dirs).stdout.strip()
                          .splitlines()[-1])
@@ -66,7 +66,7 @@ def test_tip_reaches_the_configured_depth_and_sleeves_work(two_holes):
     summary, run = two_holes
     disk = load_disk("configs/disk.toml")
     cfg = json.loads((run / "config.json").read_text())
-    assert summary["tip_min_depth_mm"] == pytest.approx([disk.penetration] * 3, abs=0.5)   # lead-in + 2
+    assert summary["tip_min_depth_mm"] == pytest.approx([disk.penetration] * 2, abs=0.5)
     travel_limit = cfg["sleeve"]["travel"]
     for s in summary["sleeve_max_travel_mm"]:
         assert 0.0 < s <= travel_limit
@@ -103,7 +103,7 @@ def test_free_rolling_at_low_resistance_rolls_without_slip(side_scenes):
 
 @pytest.mark.scene
 def test_weight_sets_the_penetration(side_scenes):
-    """Free rolling with sinking under W (deeper strips, one hole): a light disk rides up on its punches, so
+    """Free rolling with sinking under W (the 120 mm strip, one hole): a light disk rides up on its punches, so
     its tip goes less deep than the prescribed 70 mm; a heavy one sinks until its tips reach the strip's floor,
     and the run stops saying so instead of writing a hole."""
     summary = json.loads(side_scenes["light"].result().stdout.strip().splitlines()[-1])
