@@ -10,6 +10,7 @@ from pathlib import Path
 from analysis.core.config import load_disk
 from analysis.core.schema import ROOT, ConfigError
 from analysis.core.bed_spec import BED_DIR
+from analysis.core.io import shown
 
 
 def cmd_theory(args) -> int:
@@ -26,7 +27,7 @@ def cmd_theory(args) -> int:
     if len(res["readings"]):
         print(f"best reading of eqs (4)/(5) against Table 1: {res['best']} "
               f"(rms {res['readings'].rms_mm.min():.1f} mm)")
-    print(f"wrote {out.relative_to(ROOT) if out.is_relative_to(ROOT) else out}/")
+    print(f"wrote {shown(out)}/")
     return 0
 
 

@@ -33,7 +33,7 @@ from analysis.core.io import say
 from analysis.core.runner import finished, run_all
 from analysis.core.config import MACHINE
 from analysis.core.schema import ROOT, ConfigError
-from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
+from analysis.core.io import atomic_csv, atomic_write, read_table, shown, stamp
 
 DESIGN = ROOT / "configs/studies/machine_clay.toml"
 P_KEY, K_KEY = "disk.penetration", "sleeve.stiffness"
@@ -251,12 +251,6 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures else 0
-
-
-def shown(path: Path) -> str:
-    """A path as the project names it: relative to its root when inside it."""
-    path = Path(path)
-    return str(path.relative_to(ROOT)) if path.is_absolute() and path.is_relative_to(ROOT) else str(path)
 
 
 def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want: dict,

@@ -149,6 +149,12 @@ def _abandoned(lock: Path) -> bool:
     return False
 
 
+def shown(path) -> str:
+    """A path as the project names it: relative to its root when inside it."""
+    path = Path(path)
+    return str(path.relative_to(ROOT)) if path.is_absolute() and path.is_relative_to(ROOT) else str(path)
+
+
 def read_table(path) -> pd.DataFrame:
     """Read a CSV whose comment lines start with '#'."""
     return pd.read_csv(path, comment="#")
