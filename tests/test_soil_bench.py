@@ -46,6 +46,14 @@ def test_a_fixed_parameter_is_a_soil_parameter_not_also_calibrated(tmp_path, fix
         bench.load_config(tmp_path / "b.toml")
 
 
+@pytest.mark.parametrize("line, match", [("tolerance = 0.15", "lacks tolerance"), ("tolerance = 1.5", "cone_check.tolerance")])
+def test_a_bad_cone_check_is_refused(tmp_path, line, match):
+    text = bench.CONFIG.read_text().replace("tolerance = 0.15", "" if match.startswith("lacks") else line)
+    (tmp_path / "b.toml").write_text(text)
+    with pytest.raises(ConfigError, match=match):
+        bench.load_config(tmp_path / "b.toml")
+
+
 def test_a_soils_own_prior_narrows_the_common_one_and_is_checked(tmp_path):
     common, sand = bench.load_config()["bounds"], bench.load_config(soil="sand")["bounds"]
     assert set(sand) == set(common)
@@ -161,6 +169,14 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
         return {"soil": soil, "seed": seed, **params, **{k: v * (1 + 0.01 * seed) for k, v in made_up_bench(params).items()},
                 "tau_peak_kpa": [], "wall_s": 0.0}
     monkeypatch.setattr(bench, "evaluate", fake)
+    cones = []
+
+    def fake_cone(args, log_path):                    # a cone that reads 20 kPa per kPa of c
+        cones.append(args)
+        bond = float(args[args.index("--cohesion") + 1])
+        return {"cone_index_pa": 20 * made_up_bench({"normal_cohesion": bond, "friction_deg": 20.0,
+                                                     "new_contact_cohesion": 0.0, "rolling_friction": 0.1})["c_kpa"] * 1e3}
+    monkeypatch.setattr(bench, "cone_scene", fake_cone)
     cfg = {**bench.load_config(), "samples": 10, "iterations": 2, "workers": 1}
     post = bench.calibrate("clay", cfg, tmp_path)
     assert set(calls) == {cfg["calibration_seed"]} and len(calls) == 20
@@ -175,6 +191,12 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
     for r in bench.RESPONSES:
         assert math.isfinite(result[r]["mean"]) and result[r]["sd"] > 0
         assert isinstance(result[r]["every_packing_inside"], bool)
+    # the cone beside Table 2 (450 kPa for clay), once: a second check reuses the kept summary
+    cone = result["cone_kpa"]
+    assert cone["target"] == pytest.approx([450 * 0.85, 450 * 1.15]) and cone["mean"] > 0
+    assert cone["every_packing_inside"] == (cone["target"][0] <= cone["mean"] <= cone["target"][1])
+    assert len(cones) == 1 and "--test-set" in cones[0] and "bond_fragile=0.0" in cones[0]
+    assert bench.check("clay", post, cfg, tmp_path)["cone_kpa"]["mean"] == cone["mean"] and len(cones) == 1
     assert [p.name for p in bench.report(tmp_path)] == ["posterior.png", "responses.png", "surfaces.csv", "feasible.csv"]
     config = tmp_path / "clay.toml"
     config.write_text((bench.ROOT / "configs/soils/clay.toml").read_text())

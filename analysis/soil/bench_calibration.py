@@ -6,7 +6,8 @@ fitted with GrainLearning's Bayesian filter
 own folder, results/calibration/bench/<soil>/<id>/, reused when the filter asks for it again (the filter's
 samples repeat themselves: its random state is fixed), so a stopped calibration resumes. The holes never enter.
 The prior is the config's common ranges, or a soil's own narrower ones (`[soil_bounds.<soil>]`); the response
-surfaces (`response_surfaces`, `feasible_region`) say where in the common prior a soil's targets lie.
+surfaces (`response_surfaces`, `feasible_region`) say where in the common prior a soil's targets lie. The
+posterior mean is checked on three packings and on the cone beside Table 2 (`check`, `cone_check`).
 """
 from __future__ import annotations
 
@@ -64,8 +65,15 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
     unknown = sorted((set(fixed) | set(bounds)) - set(SOIL_FIELDS))
     if unknown:
         raise ConfigError(f"{path}: {', '.join(unknown)}: allowed soil contact parameters {', '.join(SOIL_FIELDS)}")
+    cone = cfg.get("cone_check")
+    if cone is not None:
+        need_cone = {"resolution", "size_mm", "seed", "cone_scale", "speed_m_s", "tolerance"}
+        if need_cone - set(cone):
+            raise ConfigError(f"{path}: [cone_check] lacks {', '.join(sorted(need_cone - set(cone)))}")
+        if not 0 < float(cone["tolerance"]) < 1:
+            raise ConfigError(f"{path}: cone_check.tolerance = {cone['tolerance']}: allowed (0, 1), a share of Table 2")
     return {**bench, "bounds": {k: tuple(map(float, v)) for k, v in bounds.items()},
-            "fixed": {k: float(v) for k, v in fixed.items()}}
+            "fixed": {k: float(v) for k, v in fixed.items()}, **({"cone_check": dict(cone)} if cone else {})}
 
 
 def load_targets(soil: str, path: Path = TARGETS) -> pd.DataFrame:
@@ -241,7 +249,7 @@ def weighted_correlation(table: pd.DataFrame, names: list[str], w) -> dict:
 def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> dict:
     """The posterior mean's bench responses on each check packing against the targets' ranges; writes
     results/calibration/bench/<soil>-check.csv. Returns per response: the mean over packings, their SD and
-    whether every packing lies inside the target's range."""
+    whether every packing lies inside the target's range; with a [cone_check], the cone index too (`cone_check`)."""
     cfg = cfg or load_config(soil=soil)
     targets = load_targets(soil)
     params = {k: float(v) for k, v in post["mean"].items()}
@@ -254,7 +262,46 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
         v = table[r].to_numpy(float)
         out[r] = {"mean": float(v.mean()), "sd": float(v.std(ddof=1)) if len(v) > 1 else float("nan"),
                   "target": [lo, hi], "every_packing_inside": bool(np.all((v >= lo) & (v <= hi)))}
+    if "cone_check" in cfg:
+        out["cone_kpa"] = cone_check(soil, params, cfg, out_dir)
     return out
+
+
+def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
+    """The parameter set's cone index on the cone calibration's bed (cfg's [cone_check]: its grains, periodic cell,
+    cone, speed and packing) against Table 2's, a check the filter never sees: inside when within the tolerance,
+    one such bed's scatter. The cone's summary is kept as <out_dir>/cone/<soil>-s<seed>-<hash>.json and reused."""
+    from analysis.core.soil_config import load_soil
+    c = cfg["cone_check"]
+    key = {"params": dict(sorted(rounded(params).items())), "fixed": dict(sorted(cfg.get("fixed", {}).items())),
+           "cone": {k: v for k, v in sorted(c.items()) if k != "tolerance"}}
+    digest = hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]
+    path = Path(out_dir) / "cone" / f"{soil}-s{c['seed']}-{digest}.json"
+    if path.exists():
+        summary = json.loads(path.read_text())
+    else:
+        args = ["--soil", soil, "--resolution", c["resolution"], "--size", ",".join(map(str, c["size_mm"])),
+                "--lateral", "periodic", "--seed", str(c["seed"]), "--cone-scale", str(c["cone_scale"]),
+                "--cone-speed", str(c["speed_m_s"]), "--threads", "1", "--out", str(path.parent)]
+        items = overrides(params, cfg.get("fixed"))
+        bond = dict(item.split("=") for item in items).get("normal_cohesion")
+        summary = cone_scene([*args, *(["--cohesion", bond] if bond else []),
+                              *[a for item in items for a in ("--test-set", item)]], path.with_suffix(".log"))
+        atomic_write(path, json.dumps(summary, indent=1))
+    table2 = load_soil(soil).cone_index / 1000
+    value, tol = summary["cone_index_pa"] / 1000, float(c["tolerance"])
+    lo, hi = table2 * (1 - tol), table2 * (1 + tol)
+    return {"mean": float(value), "sd": float("nan"), "target": [lo, hi], "every_packing_inside": bool(lo <= value <= hi)}
+
+
+def cone_scene(args: list[str], log_path: Path) -> dict:
+    """scripts/cone.py with `args` in its own process, its lines to `log_path`; its summary."""
+    log_path.parent.mkdir(parents=True, exist_ok=True)
+    with open(log_path, "w") as log:
+        code, out = run_process([sys.executable, str(ROOT / "scripts/cone.py"), *args], lambda line: log.write(line))
+    if code != 0:
+        raise RuntimeError(f"scripts/cone.py exited {code}:\n{''.join(log_path.read_text().splitlines(True)[-8:])}")
+    return json.loads(out.strip().splitlines()[-1])
 
 
 def report(out_dir: Path = BENCH_DIR) -> list[Path]:
