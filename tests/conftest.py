@@ -31,17 +31,25 @@ def scene_dirs(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def side_scenes(scene_dirs):
-    """test_disk's one-thread scenes (SIDE_SCENES) and then test_duckbeak's, two at a time on background
-    threads from the first test that asks: test_compare asks, and its one-thread clay scene shares the cores with
-    them; once it has finished, the tests after it wait on these, so both cores stay busy (one at a time, the
-    suite left a core idle for four minutes). Name -> future of the finished process (a failed scene is the asking
-    test's failure, not this fixture's)."""
+def side_scenes(request, scene_dirs):
+    """The one-thread scenes that tests only read, two at a time on background threads from the first test that
+    asks: test_disk's (SIDE_SCENES), test_duckbeak's and the hard cases' (test_hard_cases.CASES, named
+    "hard:<case>"), each only when a test of its module is collected. test_compare asks first, and its one-thread
+    clay scene shares the cores with them; the tests after it that run one scene at a time leave a core to these,
+    and the tests that read them wait on them (one at a time, the suite left a core idle for minutes). Name ->
+    future of the finished process (a failed scene is the asking test's failure, not this fixture's)."""
     from tests.test_disk import SIDE_SCENES, run_scene
-    from tests.test_duckbeak import run_duckbeak
+    collected = {item.module.__name__.rsplit(".", 1)[-1] for item in request.session.items}
     pool = ThreadPoolExecutor(max_workers=2)
-    futures = {name: pool.submit(run_scene, None, *args, dirs=scene_dirs, expect_ok=ok)
-               for name, (args, ok) in SIDE_SCENES.items()}
-    futures["duckbeak"] = pool.submit(run_duckbeak, scene_dirs)
+    futures = {}
+    if "test_disk" in collected:
+        futures.update({name: pool.submit(run_scene, None, *args, dirs=scene_dirs, expect_ok=ok)
+                        for name, (args, ok) in SIDE_SCENES.items()})
+    if "test_duckbeak" in collected:
+        from tests.test_duckbeak import run_duckbeak
+        futures["duckbeak"] = pool.submit(run_duckbeak, scene_dirs)
+    if "test_hard_cases" in collected:
+        from tests.test_hard_cases import CASES, scene
+        futures.update({f"hard:{name}": pool.submit(scene, scene_dirs, name) for name in CASES})
     yield futures
     pool.shutdown(cancel_futures=True)

@@ -3,10 +3,9 @@ README.md's table, and a fresh machine's suite run): every energy term finite, t
 RESIDUAL_BOUND, and the hole found with finite L0, L1, L2 (slip 0.5 excepted: its punch drags a trench across
 the strip, found on one machine and not on another, so only its consistency is checked). A case that the
 stability guard stops instead fails here with the guard's named cause in the message. One punch passage on the
-test strip, one thread per scene, two scenes at a time."""
+test strip, one thread per scene, in the background beside the suite's other scenes (tests/conftest.py)."""
 import json
 import math
-from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
@@ -42,15 +41,11 @@ def scene(scene_dirs, name):
 
 
 @pytest.fixture(scope="module")
-def hard_runs(scene_dirs):
-    """Every case's finished process, two at a time (one thread each), in CASES' order: both workers are busy
-    from the start; while the first case settles the clay strip (when no earlier test did), the other worker
-    settles the sand, coarse and deeper strips, so the four cases sharing the clay strip normally start after
-    it is cached (a case needing a bed another is settling waits for it: the bed's lock, scripts/beds.py)."""
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        futures = {name: pool.submit(scene, scene_dirs, name) for name in CASES}
-        done = {name: f.result() for name, f in futures.items()}
-    return done
+def hard_runs(side_scenes):
+    """Every case's finished process: conftest's side_scenes runs them in the background, one thread each, two
+    at a time, in CASES' order after test_disk's and test_duckbeak's scenes, from the suite's first long scene
+    on (a case needing a bed another is settling waits for it: the bed's lock, scripts/beds.py)."""
+    return {name: side_scenes[f"hard:{name}"].result() for name in CASES}
 
 
 @pytest.mark.scene
