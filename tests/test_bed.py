@@ -258,7 +258,8 @@ def test_a_cached_bed_settled_for_another_table2_is_refused(tmp_path):
 
 def test_a_new_bed_is_settled_by_one_process_while_another_waits(tmp_path, monkeypatch):
     """Two runs that need the same new bed: the one holding its lock settles it; the other waits and then loads
-    the bed the first saved, settling none itself. A lock whose process has died is taken over."""
+    the bed the first saved, settling none itself. A lock whose process has died, or another host's held for
+    hours, is taken over."""
     import socket
     import threading
     from analysis.core.bed_spec import bed_key
@@ -293,3 +294,7 @@ def test_a_new_bed_is_settled_by_one_process_while_another_waits(tmp_path, monke
         assert waiter.is_alive() and order == ["first"]  # a held lock keeps the other waiting
     waiter.join(5)
     assert order == ["first", "second"]
+    lock.write_text("another-host 12345")                # another host's lock, held for longer than any settling
+    __import__("os").utime(lock, (0, 0))
+    with held(lock, poll_s=0.05, stale_s=3600):
+        assert lock.read_text().startswith(socket.gethostname())

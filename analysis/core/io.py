@@ -99,10 +99,11 @@ def atomic_csv(df: pd.DataFrame, path: Path, note: str | None = None):
 
 
 @contextmanager
-def held(lock: Path, log=None, poll_s: float = 2.0):
+def held(lock: Path, log=None, poll_s: float = 2.0, stale_s: float = 4 * 3600):
     """Hold `lock` for the block: a file made only if absent (O_EXCL), naming this host and process, removed after.
-    While another live process holds it, wait (saying so once); a lock whose process on this host has died is
-    taken over. For work two processes would otherwise both do, such as settling one bed."""
+    While another live process holds it, wait (saying so once); a lock whose process on this host has died, or
+    one another host has held for over `stale_s`, is taken over. For work two processes would otherwise both do,
+    such as settling one bed."""
     lock = Path(lock)
     lock.parent.mkdir(parents=True, exist_ok=True)
     told = False
@@ -110,7 +111,7 @@ def held(lock: Path, log=None, poll_s: float = 2.0):
         try:
             fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
         except FileExistsError:
-            if _abandoned(lock):
+            if _abandoned(lock, stale_s):
                 lock.unlink(missing_ok=True)
                 continue
             if log and not told:
@@ -134,12 +135,17 @@ def _holder(lock: Path) -> str:
         return ""
 
 
-def _abandoned(lock: Path) -> bool:
-    """The lock names a process on this host that no longer runs (a lock still being written, or held on another
-    host, is not abandoned)."""
+def _abandoned(lock: Path, stale_s: float) -> bool:
+    """The lock names a process on this host that no longer runs, or another host's that is older than `stale_s`
+    (a lock still being written is not abandoned)."""
     parts = _holder(lock).split()
-    if len(parts) != 2 or parts[0] != socket.gethostname() or not parts[1].isdigit():
+    if len(parts) != 2 or not parts[1].isdigit():
         return False
+    if parts[0] != socket.gethostname():
+        try:
+            return time.time() - lock.stat().st_mtime > stale_s
+        except OSError:
+            return False
     try:
         os.kill(int(parts[1]), 0)
     except ProcessLookupError:
