@@ -264,6 +264,7 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
                   "target": [lo, hi], "every_packing_inside": bool(np.all((v >= lo) & (v <= hi)))}
     if "cone_check" in cfg:
         out["cone_kpa"] = cone_check(soil, params, cfg, out_dir)
+    atomic_write(Path(out_dir) / f"{soil}-check.json", json.dumps(out, indent=1))
     return out
 
 
@@ -334,9 +335,20 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
     paths = [Path(out_dir) / "posterior.png", Path(out_dir) / "responses.png"]
     fig.savefig(paths[0], dpi=110)
     plt.close(fig)
-    fig, axes = plt.subplots(1, len(RESPONSES), figsize=(4.2 * len(RESPONSES), 3.4), squeeze=False)
-    for j, r in enumerate(RESPONSES):
+    checks = {soil: json.loads(p.read_text()) for soil in soils if (p := Path(out_dir) / f"{soil}-check.json").exists()}
+    panels = [*RESPONSES, *(["cone_kpa"] if any("cone_kpa" in c for c in checks.values()) else [])]
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.4), squeeze=False)
+    for j, r in enumerate(panels):
         ax = axes[0][j]
+        if r == "cone_kpa":             # the check's cone beside Table 2 ± its tolerance; the filter never saw it
+            for i, soil in enumerate(soils):
+                if "cone_kpa" in checks.get(soil, {}):
+                    lo, hi = checks[soil]["cone_kpa"]["target"]
+                    ax.add_patch(plt.Rectangle((i - 0.35, lo), 0.7, hi - lo, color=colours[soil], alpha=0.2))
+                    ax.scatter([i + 0.15], [checks[soil]["cone_kpa"]["mean"]], s=36, marker="D", c=colours[soil])
+            ax.set_xticks(range(len(soils)), soils), ax.set_title("cone_kpa (packing 1, against Table 2)")
+            ax.set_xlim(-0.6, len(soils) - 0.4), ax.autoscale_view()
+            continue
         for i, soil in enumerate(soils):
             target = load_targets(soil).loc[r]
             ax.add_patch(plt.Rectangle((i - 0.35, target["lo"]), 0.7, target["hi"] - target["lo"], color=colours[soil],
