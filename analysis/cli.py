@@ -154,6 +154,10 @@ def build_parser() -> argparse.ArgumentParser:
                        "grain size, model, measurement, machine, packing and soil (results/validation/)")
     p.add_argument("--preset", default="validation_medium", help="a preset of results/comparison.csv (default "
                    "validation_medium, the main job's)")
+    p.add_argument("--machine-dir", type=folder("--machine-dir"), default=None,
+                   help="the machine calibration whose intervals and design slopes are propagated: its machine_fit.csv "
+                   "and machine.csv (default results/calibration, the fit configs/machine.toml holds; "
+                   "results/calibration/machine_r6: the design at the main job's grains)")
     p.set_defaults(func=cmd_budget)
     p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
     p.add_argument("file", nargs="+", help="study file(s), e.g. configs/studies/slip.toml; several run as one batch")

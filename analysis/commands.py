@@ -119,7 +119,7 @@ def cmd_rings(args) -> int:
 def cmd_budget(args) -> int:
     from analysis.holes import budget_report
     try:
-        for path in budget_report.run(args.preset):
+        for path in budget_report.run(args.preset, machine_dir=args.machine_dir):
             print(f"wrote {path}")
     except ConfigError as e:
         print(f"budget: {e}", file=sys.stderr)

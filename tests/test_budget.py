@@ -89,3 +89,10 @@ def test_the_validation_strips_at_three_grain_sizes_give_each_metrics_limit():
         assert g.limit_lo <= limit[m] <= g.limit_hi and g.limit == pytest.approx(limit[m], abs=0.01), g.to_dict()
     at6 = t[(t.radius_mm == 6.0)].set_index("metric")
     assert bool(at6.loc["L2_surface", "within_5pct"]) and not bool(at6.loc["h1", "within_5pct"])
+
+
+def test_a_machine_folder_without_a_fit_is_refused(tmp_path, capsys):
+    from analysis import cli
+    assert cli.main(["budget", "--machine-dir", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "--machine-dir" in err and "machine_fit.csv" in err and "allowed" in err and "Traceback" not in err, err

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.core.io import atomic_csv, read_table, stamp
+from analysis.core.io import atomic_csv, read_table, shown, stamp
 from analysis.core.schema import ROOT, ConfigError
 from analysis.holes.budget import budget
 from analysis.holes.compare import t975
@@ -95,14 +95,20 @@ def table(comparison: pd.DataFrame, holes: pd.DataFrame, grain: pd.DataFrame, ra
 
 
 def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Path = ROOT / "results/comparison.csv",
-        machine_dir: Path = ROOT / "results/calibration") -> list[Path]:
-    """results/validation/error_budget.csv and error_budget.png for `preset`'s rows of the comparison."""
+        machine_dir: Path | None = None) -> list[Path]:
+    """results/validation/error_budget.csv and error_budget.png for `preset`'s rows of the comparison, the machine's
+    part from the calibration in `machine_dir` (default results/calibration)."""
+    chosen = machine_dir is not None
+    machine_dir = Path(machine_dir or ROOT / "results/calibration")
+    if chosen and not (machine_dir / "machine_fit.csv").exists():
+        raise ConfigError(f"--machine-dir {shown(machine_dir)}: no machine_fit.csv there; allowed a folder "
+                          "`./holes calibrate-machine --out` wrote")
     from analysis.core.config import load_preset, load_resolution
     p = load_preset(preset)
     comparison = read_table(comparison_path)
     comparison = comparison[comparison.preset == preset]
     if comparison.empty:
-        raise ConfigError(f"budget: {comparison_path} has no rows of preset {preset!r}: run `./holes compare "
+        raise ConfigError(f"{comparison_path} has no rows of preset {preset!r}: run `./holes compare "
                           f"--preset {preset}` first")
     holes = read_table(ROOT / "results/comparison" / preset / "holes.csv")
     grain = read_table(OUT / "grain_size.csv")
@@ -117,7 +123,7 @@ def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Pat
     t = t[["soil", "metric", "calibration_target", "field_mean", "sim_mean", "n_holes", "n_runs", "miss", "grain_size",
            "grain_size_lo", "grain_size_hi", "model", "measurement", "machine", "packing", "soil_parameters",
            "uncertain", "resolved", "dominant", "not_measured"]]
-    command = f"./holes budget --preset {preset}"
+    command = f"./holes budget --preset {preset}" + (f" --machine-dir {shown(machine_dir)}" if chosen else "")
     path = Path(out) / "error_budget.csv"
     atomic_csv(t.round(3), path, stamp(command) + f"; mm; the miss (sim − field) = grain_size + model; 95 % half-widths "
                f"measurement, machine ({p.machine} fit), packing, soil; r = {radius_mm:g} mm")
