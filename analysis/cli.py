@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
@@ -55,6 +56,15 @@ def scheduler_address(text: str) -> str:
     return text
 
 
+def evaluation_ids(text: str) -> list[str]:
+    """Bench evaluation ids, comma-separated: s<seed>-<10 hex digits> each."""
+    ids = [t.strip() for t in text.split(",") if t.strip()]
+    if not ids or not all(re.fullmatch(r"s\d+-[0-9a-f]{10}", i) for i in ids):
+        raise argparse.ArgumentTypeError(f"--cones = {text!r}: allowed evaluation ids s<seed>-<10 hex digits>, "
+                                         "comma-separated (the folders of results/calibration/bench/<soil>/)")
+    return ids
+
+
 def run_folder(text: str) -> Path:
     """A finished run's folder: it must hold the run's config.json."""
     if not (Path(text) / "config.json").is_file():
@@ -100,6 +110,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--bench", action="store_true",
                    help="calibrate bond, friction and new-contact cohesion on the shear box and the collapse test with "
                         "GrainLearning (configs/bench_calibration.toml, configs/field/soil_targets.csv) instead")
+    p.add_argument("--cones", type=evaluation_ids, default=None,
+                   help="with --bench: no calibration; the cone check of these finished evaluations of the soil "
+                        "(ids of results/calibration/bench/<soil>/, comma-separated), --workers at a time: the cone "
+                        "across the bench's region (results/calibration/bench/<soil>-cones.csv)")
     p.set_defaults(func=cmd_calibrate)
     p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "
                        "cone-to-particle ratio, core density (results/calibration/cone_checks.csv, .png)")

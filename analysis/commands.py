@@ -49,6 +49,9 @@ def cmd_params(args) -> int:
 def cmd_calibrate(args) -> int:
     if args.bench:
         return cmd_calibrate_bench(args)
+    if args.cones:
+        print("calibrate: --cones: allowed only with --bench (the cone of bench evaluations)", file=sys.stderr)
+        return 2
     from analysis.soil import calibrate
     from analysis.core.bed_spec import check_size
     from analysis.core.config import check_lateral, load_resolution
@@ -150,6 +153,17 @@ def cmd_calibrate_bench(args) -> int:
     except ConfigError as e:
         print(f"calibrate: {e}", file=sys.stderr)
         return 2
+    if args.cones:
+        try:
+            table = bench.cones(args.soil, args.cones, cfg, workers=args.workers)
+        except ConfigError as e:
+            print(f"calibrate: {e}", file=sys.stderr)
+            return 2
+        except RuntimeError as e:
+            print(f"calibrate {args.soil}: {e}", file=sys.stderr)
+            return 1
+        print(table.to_string(index=False))
+        return 0
     try:
         post = bench.calibrate(args.soil, cfg)
         check = bench.check(args.soil, post, cfg)

@@ -275,3 +275,31 @@ def test_disturbed_soil_with_its_bonds_back_stands_steeper_than_without(tmp_path
                                                 for frac in (0.0, 1.0)})
     angles = {name: r["angle_deg"] for name, r in runs.items()}
     assert 15 < angles["f0"] < 60 and angles["f1"] > angles["f0"] + 10, angles
+
+
+def test_the_cone_runs_on_chosen_evaluations_and_keeps_every_one(tmp_path, monkeypatch):
+    """`calibrate --bench --cones`: each chosen evaluation's parameters through the cone check, beside its bench
+    responses, in <soil>-cones.csv; a second call adds its rows and reruns no cone; an id without a finished
+    evaluation is refused."""
+    import shutil
+    kept = [d for d in sorted(bench.BENCH_DIR.glob("clay/s1-*/responses.json"))
+            if "failed" not in json.loads(d.read_text())][:2]                  # two of the committed evaluations
+    for done in kept:
+        shutil.copytree(done.parent, tmp_path / "clay" / done.parent.name)
+    ids = [d.parent.name for d in kept]
+    runs = []
+
+    def fake_cone(args, log_path):
+        runs.append(args)
+        return {"cone_index_pa": 1e3 * float(args[args.index("--cohesion") + 1]) / 500}
+    monkeypatch.setattr(bench, "cone_scene", fake_cone)
+    cfg = bench.load_config(soil="clay")
+    first = bench.cones("clay", ids[:1], cfg, tmp_path, workers=1)
+    table = bench.cones("clay", ids, cfg, tmp_path, workers=2)
+    assert len(runs) == 2 and list(table.id) == ids
+    saved = pd.read_csv(tmp_path / "clay-cones.csv", comment="#")
+    assert list(saved.id) == ids and set(bench.RESPONSES) <= set(saved.columns)
+    assert saved.cone_kpa.iloc[0] == pytest.approx(first.cone_kpa.iloc[0])
+    assert saved.cone_kpa.iloc[0] == pytest.approx(json.loads(kept[0].read_text())["normal_cohesion"] / 500, rel=1e-3)
+    with pytest.raises(ConfigError, match="s1-0000000000"):
+        bench.cones("clay", ["s1-0000000000"], cfg, tmp_path)

@@ -295,6 +295,36 @@ def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) ->
     return {"mean": float(value), "sd": float("nan"), "target": [lo, hi], "every_packing_inside": bool(lo <= value <= hi)}
 
 
+def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, workers: int = 2) -> pd.DataFrame:
+    """The cone check of finished evaluations (`ids`, folders of <out_dir>/<soil>/), `workers` at a time, beside their
+    bench responses: where in the bench's region the cone meets Table 2. Writes <out_dir>/<soil>-cones.csv (every
+    evaluation whose cone has run, these and earlier ones)."""
+    if "cone_check" not in cfg:
+        raise ConfigError(f"{CONFIG}: no [cone_check] section: the cone's bed and cone are not given")
+    rows = []
+    for i in ids:
+        done = Path(out_dir) / soil / i / "responses.json"
+        row = json.loads(done.read_text()) if done.exists() else {}
+        if not row or row.get("failed"):
+            raise ConfigError(f"--cones: {i}: no finished evaluation of {soil} in {Path(out_dir) / soil}; allowed the "
+                              "ids of its folders with a responses.json")
+        rows.append(with_collapse_angle(row, done.parent))
+    names = list(cfg["bounds"])
+
+    def one(row):
+        return {**{k: row[k] for k in ("id", *names, *RESPONSES)},
+                "cone_kpa": cone_check(soil, {n: row[n] for n in names}, cfg, out_dir)["mean"]}
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        table = pd.DataFrame(list(pool.map(one, rows)))
+    path = Path(out_dir) / f"{soil}-cones.csv"
+    if path.exists():
+        table = pd.concat([pd.read_csv(path, comment="#"), table]).drop_duplicates("id", keep="last")
+    lo, hi = cone_check(soil, {n: rows[0][n] for n in names}, cfg, out_dir)["target"]
+    atomic_csv(table.round(4), path, f"./holes calibrate --soil {soil} --bench --cones ID,...; the cone index of "
+               f"[cone_check] beside each evaluation's bench responses; Table 2 ± tolerance: {lo:g}-{hi:g} kPa")
+    return table
+
+
 def cone_scene(args: list[str], log_path: Path) -> dict:
     """scripts/cone.py with `args` in its own process, its lines to `log_path`; its summary."""
     log_path.parent.mkdir(parents=True, exist_ok=True)
