@@ -166,3 +166,18 @@ def test_cone_damage_summary_reads_the_reach_and_refuses_an_empty_folder(tmp_pat
     row = cone_damage.summary(cone_damage.maps(tmp_path)).iloc[0]
     assert row.broken_fraction == 0.5 and row.broken_fraction_0_150mm == pytest.approx(1 / 3)
     assert row.reach_mm == 20.0 and row.half_width_mm == 100.0    # 9 of the 10 broken within 20 mm
+
+
+def test_the_calibration_report_keeps_its_rows_where_the_beds_are_not(tmp_path, monkeypatch):
+    """results/cache/beds is not in git: on a machine without the calibration's beds, each soil's row of the
+    committed summary.csv is kept (its cone profiles, which are committed, still plotted) instead of a crash."""
+    import shutil
+    from analysis.core.io import read_table
+    from analysis.soil import calibration_report as report
+    monkeypatch.setattr(report, "BED_DIR", tmp_path / "no-beds")
+    shutil.copy(report.CAL / "summary.csv", tmp_path / "summary.csv")
+    table = report.run(tmp_path)
+    kept = read_table(report.CAL / "summary.csv")
+    assert list(table.soil) == list(kept.soil) == ["clay", "loam", "sand"]
+    assert table.set_index("soil").normal_cohesion_kpa.to_dict() == kept.set_index("soil").normal_cohesion_kpa.to_dict()
+    assert (tmp_path / "resistance_depth.png").stat().st_size > 5000
