@@ -39,7 +39,7 @@ def side_scenes(request, scene_dirs):
     and the tests that read them wait on them (one at a time, the suite left a core idle for minutes). Name ->
     future of the finished process (a failed scene is the asking test's failure, not this fixture's)."""
     from tests.test_disk import SIDE_SCENES, run_scene
-    collected = {item.module.__name__.rsplit(".", 1)[-1] for item in request.session.items}
+    collected = {Path(item.nodeid.split("::")[0]).stem for item in request.session.items}   # doctests have no .module
     pool = ThreadPoolExecutor(max_workers=2)
     futures = {}
     if "test_disk" in collected:
