@@ -272,7 +272,6 @@ def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) ->
     """The parameter set's cone index on the cone calibration's bed (cfg's [cone_check]: its grains, periodic cell,
     cone, speed and packing) against Table 2's, a check the filter never sees: inside when within the tolerance,
     one such bed's scatter. The cone's summary is kept as <out_dir>/cone/<soil>-s<seed>-<hash>.json and reused."""
-    from analysis.core.soil_config import load_soil
     c = cfg["cone_check"]
     key = {"params": dict(sorted(rounded(params).items())), "fixed": dict(sorted(cfg.get("fixed", {}).items())),
            "cone": {k: v for k, v in sorted(c.items()) if k != "tolerance"}}
@@ -289,10 +288,16 @@ def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) ->
         summary = cone_scene([*args, *(["--cohesion", bond] if bond else []),
                               *[a for item in items for a in ("--test-set", item)]], path.with_suffix(".log"))
         atomic_write(path, json.dumps(summary, indent=1))
-    table2 = load_soil(soil).cone_index / 1000
-    value, tol = summary["cone_index_pa"] / 1000, float(c["tolerance"])
-    lo, hi = table2 * (1 - tol), table2 * (1 + tol)
+    value = summary["cone_index_pa"] / 1000
+    lo, hi = cone_target(soil, cfg)
     return {"mean": float(value), "sd": float("nan"), "target": [lo, hi], "every_packing_inside": bool(lo <= value <= hi)}
+
+
+def cone_target(soil: str, cfg: dict) -> tuple[float, float]:
+    """Table 2's cone index ± the [cone_check] tolerance, kPa."""
+    from analysis.core.soil_config import load_soil
+    table2, tol = load_soil(soil).cone_index / 1000, float(cfg["cone_check"]["tolerance"])
+    return table2 * (1 - tol), table2 * (1 + tol)
 
 
 def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, workers: int = 2) -> pd.DataFrame:
@@ -319,7 +324,7 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
     path = Path(out_dir) / f"{soil}-cones.csv"
     if path.exists():
         table = pd.concat([pd.read_csv(path, comment="#"), table]).drop_duplicates("id", keep="last")
-    lo, hi = cone_check(soil, {n: rows[0][n] for n in names}, cfg, out_dir)["target"]
+    lo, hi = cone_target(soil, cfg)
     atomic_csv(table.round(4), path, f"./holes calibrate --soil {soil} --bench --cones ID,...; the cone index of "
                f"[cone_check] beside each evaluation's bench responses; Table 2 ± tolerance: {lo:g}-{hi:g} kPa")
     return table
