@@ -113,10 +113,9 @@ def run_rows(case, folder: Path) -> pd.DataFrame:
                          "wall_s": summary["wall_s"]})
 
 
-def _solve(means, want: dict, variant: str):
-    """(P, k) where the planes through the run means (columns P, stiffness, L2_surface, h1: a frame, or an array in
-    that order) meet the variant's targets, and the two planes' coefficients."""
-    m = np.asarray(means[list(MEAN_COLUMNS)] if isinstance(means, pd.DataFrame) else means, float)
+def _solve(m: np.ndarray, want: dict, variant: str):
+    """(P, k) where the planes through the run means (rows of MEAN_COLUMNS) meet the variant's targets, and the two
+    planes' coefficients."""
     X = np.column_stack([np.ones(len(m)), m[:, 0], m[:, 1]])
     a = np.linalg.lstsq(X, m[:, 2], rcond=None)[0]
     b = np.linalg.lstsq(X, m[:, 3], rcond=None)[0]
@@ -179,7 +178,7 @@ def fit(rows: pd.DataFrame, want: dict, n_boot: int = 2000, seed: int = 0) -> pd
             out.append({**row, "status": f"not determined: {means.P.nunique()} penetration(s) and "
                         f"{means.stiffness.nunique()} spring rate(s) in {len(means)} run(s); it needs 2, 2 and 3"})
             continue
-        P, k, a, b = _solve(means, want, variant)
+        P, k, a, b = _solve(means[list(MEAN_COLUMNS)].to_numpy(float), want, variant)
         if draws is None:
             rng = np.random.default_rng(seed)
             draws = resampled_means(found, rng, n_boot)
