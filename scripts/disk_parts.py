@@ -111,7 +111,8 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
     log = (lambda m: None) if quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     bed_path = beds.build(soil.name, preset["resolution"], params["bed_size_mm"], params["seed"], threads,
                           quiet=quiet, bed_dir=bed_dir or beds.BED_DIR,
-                          overrides={k: params["soil"][k] for k in soil.settling_key()}, lateral=preset["lateral"])
+                          overrides=params.get("bed_settled_as", {k: params["soil"][k] for k in soil.settling_key()}),
+                          lateral=preset["lateral"])
     meta = beds.load_meta(bed_path)
     out = open_run_folder(out_root, params, threads)
     if not resume:

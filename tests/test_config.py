@@ -8,6 +8,7 @@ from analysis.core.config import DISK_FIELDS, PRESET_FIELDS, SLEEVE_FIELDS, load
 from analysis.core.seedling import load_seedling
 from analysis.core.schema import ROOT, ConfigError
 from analysis.core.soil_config import SOIL_FIELDS
+from analysis.core.run_spec import plan
 
 
 def write_disk(tmp_path, **change):
@@ -148,7 +149,8 @@ def test_every_graded_preset_keeps_its_tools_in_the_fine_zone():
 @pytest.mark.parametrize("extra,pattern", [('machine = "tuned"', "machine = 'tuned': allowed literal, surface"),
                                            ("awake = [60.0]", r"awake = \[60.0\]: allowed two lengths"),
                                            ("awake = [60.0, -5.0]", r"awake.ahead = -5.0 is out of range"),
-                                           ("machine = 3", "machine = 3: must be a string")])
+                                           ("machine = 3", "machine = 3: must be a string"),
+                                           ('soils = "calibrated"', "soils = 'calibrated': allowed table | bench")])
 def test_a_presets_machine_and_awake_are_checked(tmp_path, extra, pattern):
     from analysis.core.config import load_preset
     text = (ROOT / "configs/presets.toml").read_text()
@@ -158,6 +160,32 @@ def test_a_presets_machine_and_awake_are_checked(tmp_path, extra, pattern):
     path.write_text(section + "\n" + extra + "\n")
     with pytest.raises(ConfigError, match=pattern):
         load_preset("quick", path)
+
+
+def test_a_bench_soils_preset_runs_each_soil_as_its_bench_calibration_left_it(tmp_path):
+    """soils = "bench": every calibrated parameter at its posterior mean, the held ones as held, the shear bond equal
+    to the normal one, the rest of [soil] kept, the bed settled as [soil] settles it; the soil's run is a new one.
+    A soil without a [bench_posterior] is refused naming the command that makes one."""
+    import tomllib
+    from analysis.core.soil_config import bench_soil, load_soil
+    for soil in ("clay", "loam", "sand"):
+        post = tomllib.loads((ROOT / f"configs/soils/{soil}.toml").read_text())["bench_posterior"]
+        table, bench = plan(soil, "validation_medium"), plan(soil, "bench_soils_medium")
+        for name in ("normal_cohesion", "friction_deg", "new_contact_cohesion", "rolling_friction"):
+            assert bench["soil"][name] == post[name]["mean"], (soil, name)
+        assert bench["soil"]["bond_fragile"] == post["fixed"]["bond_fragile"]
+        assert bench["soil"]["shear_cohesion"] == bench["soil"]["normal_cohesion"]
+        assert bench["soil"]["young"] == table["soil"]["young"] and bench["id"] != table["id"]
+        # the bed settles as the bench tests' beds did (as [soil] says): the same bed as the table soil's runs
+        assert bench["bed_settled_as"] == {k: table["soil"][k] for k in bench["bed_settled_as"]}
+        assert "bed_settled_as" not in table
+        assert {k: v for k, v in bench["preset"].items() if k not in ("name", "soils")} == \
+            {k: v for k, v in table["preset"].items() if k != "name"}
+    bare = tmp_path / "clay.toml"
+    text = (ROOT / "configs/soils/clay.toml").read_text()
+    bare.write_text(text[:text.index("# GrainLearning's posterior")])
+    with pytest.raises(ConfigError, match=r"no \[bench_posterior\].*calibrate --soil clay --bench"):
+        bench_soil(load_soil(bare), bare)
 
 
 @pytest.mark.parametrize("column, value", [("bulk_density_g_cm3", "-1.230"), ("moisture_percent", "-24.2"),

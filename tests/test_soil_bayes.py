@@ -18,7 +18,7 @@ def bench(p):
 
 
 def test_grainlearning_recovers_made_up_parameters_from_a_made_up_smooth_response():
-    r = calibrate(bench, bench(TRUE), BOUNDS, samples=30, iterations=3)
+    r = calibrate(bench, {k: (0.95 * v, 1.05 * v) for k, v in bench(TRUE).items()}, BOUNDS, samples=30, iterations=3)
     for name, value in TRUE.items():
         assert r["mean"][name] == pytest.approx(value, rel=0.08), (name, r["mean"])
         assert 0 < r["cv"][name] < 0.3
@@ -27,4 +27,19 @@ def test_grainlearning_recovers_made_up_parameters_from_a_made_up_smooth_respons
 
 def test_a_hole_metric_is_never_a_soils_target():
     with pytest.raises(ValueError, match="h1 are hole metrics"):
-        calibrate(bench, {"cone_kpa": 450.0, "h1": 13.5}, BOUNDS)
+        calibrate(bench, {"cone_kpa": (400.0, 500.0), "h1": (12.0, 15.0)}, BOUNDS)
+
+
+def test_each_miss_weighs_by_its_targets_width_not_its_size():
+    """Two responses of one parameter x ask for x = 6 (a wide range, 0-12) and x = 10 (a narrow one, 9-11): the
+    narrow target holds the posterior (weighed by their values instead, x would settle near 7)."""
+    def model(p):
+        return {"wide": p["x"], "narrow": p["x"], "other": p["y"]}
+    r = calibrate(model, {"wide": (0.0, 12.0), "narrow": (9.0, 11.0), "other": (4.0, 6.0)},
+                  {"x": (0.0, 20.0), "y": (0.0, 10.0)}, samples=30, iterations=3)
+    assert 9.0 < r["mean"]["x"] < 11.0, r["mean"]
+
+
+def test_a_target_is_a_range():
+    with pytest.raises(ValueError, match="each a range"):
+        calibrate(bench, {"cone_kpa": (500.0, 400.0), "c_kpa": (20.0, 35.0)}, BOUNDS)

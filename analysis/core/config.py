@@ -183,12 +183,13 @@ class Preset:
     lateral: str
     machine: str = ""             # a section of configs/machine.toml: the machine's calibrated values ("": the disk config's)
     awake: tuple | None = None    # (behind, ahead) mm: only the soil round the tools moves (None: all of it)
+    soils: str = ""               # "bench": each soil as its bench calibration left it ("" or "table": its [soil])
 
     def in_run(self) -> dict:
-        """The preset as a run's parameters hold it: `machine` and `awake` only when set, so the ids of runs of
-        presets without them stay as they were."""
+        """The preset as a run's parameters hold it: `machine`, `awake` and `soils` only when set, so the ids of runs
+        of presets without them stay as they were."""
         d = as_dict(self)
-        for key in ("machine", "awake"):
+        for key in ("machine", "awake", "soils"):
             if not d[key]:
                 d.pop(key)
         if d.get("awake"):
@@ -198,7 +199,9 @@ class Preset:
 
 AWAKE = Field(0.0, 1000.0, unit="mm", meaning="awake soil behind / ahead of the tools' reach")
 PRESET_OPTIONAL = {"machine": Field(kind=str, meaning="a section of configs/machine.toml (the calibrated machine)"),
-                   "awake": AWAKE}
+                   "awake": AWAKE,
+                   "soils": Field(kind=str, meaning="the soils' contact parameters: table (each configs/soils/<soil>.toml "
+                                  "[soil]) | bench (its [bench_posterior], the bench calibration's)")}
 
 
 def check_awake(where: str, value) -> list[float]:
@@ -243,6 +246,12 @@ def load_preset(name: str, path=None) -> Preset:
         load_machine(v["machine"])
     if "awake" in extra:
         v["awake"] = tuple(check_awake(f"{path}: {name}.awake", extra["awake"]))
+    if "soils" in extra:
+        from analysis.core.soil_config import SOIL_SOURCES
+        soils = PRESET_OPTIONAL["soils"].check(f"{path}: {name}.soils", extra["soils"])
+        if soils not in SOIL_SOURCES:
+            raise ConfigError(f"{path}: {name}.soils = {soils!r}: allowed {' | '.join(SOIL_SOURCES)}")
+        v["soils"] = "" if soils == "table" else soils
     return Preset(name, **v)
 
 

@@ -14,7 +14,7 @@ from analysis.core.cli_types import folder, option, CommandLine
 from analysis.core.config import (AWAKE, PRESET_FIELDS, SEED, SLIP, THREADS, check_awake, load_disk, load_machine,
                                   load_preset, load_resolution, load_sleeve, preset_with, tool_with)
 from analysis.core.schema import as_dict, ConfigError, Field
-from analysis.core.soil_config import SOIL_DEFAULTS, load_soil, parse_overrides, soil_with
+from analysis.core.soil_config import SOIL_DEFAULTS, bench_soil, load_soil, parse_overrides, soil_with
 from analysis.core.kinematics import TIP_SPHERE_RATIO, layout
 
 CHECKPOINT_EVERY = 600.0    # s of wall time between checkpoints of an unfinished run (0: none)
@@ -124,7 +124,8 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
     disk, sleeve = tool_with(disk, load_sleeve(spec.disk_path, disk), {**machine, **spec.tool})
     preset = preset_with(preset, {k: v for k, v in ((k, getattr(spec, k)) for k in ("width", "depth", "holes", "lead_in",
                                                                      "resolution", "dt_safety", "lateral")) if v is not None})
-    soil = soil_with(load_soil(spec.soil), spec.overrides)
+    table_soil = load_soil(spec.soil)
+    soil = soil_with(bench_soil(table_soil) if preset.soils == "bench" else table_soil, spec.overrides)
     slip = RUN_FIELDS["slip"].check("run.slip", disk.slip if slip is None else slip)
     speed_kmh = RUN_FIELDS["speed_kmh"].check("run.speed_kmh", disk.speed_kmh if speed_kmh is None else speed_kmh)
     RUN_FIELDS["disk_inertia"].check("run.disk_inertia", spec.disk_inertia)
@@ -158,6 +159,8 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
               "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}
     if weight is not None:                  # only then: the ids of runs without a weight stay as they were
         params["weight"] = weight
+    if preset.soils == "bench":             # likewise; the bed settles as the bench tests' beds did, as [soil] says
+        params["bed_settled_as"] = soil_with(table_soil, spec.overrides).settling_key()  # (the contact law then changes)
     check_grains_fit(res, [x / 1000 for x in params["bed_size_mm"]])
     if res.graded:                          # likewise; measure.py reads the fine zone from here
         params["graded"] = {k: getattr(res, k) for k in ("radius", "spread", "coarse_radius", "fine_width",

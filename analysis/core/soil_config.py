@@ -100,6 +100,31 @@ def load_soil(name_or_path) -> Soil:
     return soil_from_dict(path.stem, data.get("soil", {}), f"{path}: soil")
 
 
+SOIL_SOURCES = ("table", "bench")    # a preset's `soils`: each config's [soil], or its [bench_posterior]
+
+
+def bench_soil(soil: Soil, path=None) -> Soil:
+    """The soil as its bench calibration left it: the posterior mean of every calibrated parameter and the values
+    the calibration held fixed (the `[bench_posterior]` table `./holes calibrate --soil S --bench` writes into
+    configs/soils/<soil>.toml), the shear bond equal to the normal one as the bench tests ran it; the rest (modulus,
+    rolling stiffness, damping) from [soil]. A soil never calibrated on its bench tests is a ConfigError.
+
+    >>> s = bench_soil(load_soil("clay"))
+    >>> s.bond_fragile, s.shear_cohesion == s.normal_cohesion, s.young == load_soil("clay").young
+    (0, True, True)
+    """
+    path = Path(path or ROOT / "configs/soils" / f"{soil.name}.toml")
+    post = read_toml(path).get("bench_posterior")
+    if not post:
+        raise ConfigError(f"{path}: no [bench_posterior]: soils = 'bench' needs the soil calibrated on its bench tests "
+                          f"(./holes calibrate --soil {soil.name} --bench); allowed soils = 'table' until then")
+    values = {k: v["mean"] for k, v in post.items() if k in SOIL_FIELDS and isinstance(v, dict)}
+    values.update(post.get("fixed", {}))
+    if "normal_cohesion" in values:
+        values["shear_cohesion"] = values["normal_cohesion"]
+    return soil_with(soil, values)
+
+
 def soil_with(soil: Soil, overrides: dict) -> Soil:
     """The soil with some contact parameters replaced (`--set key=value`), each checked against SOIL_FIELDS."""
     import dataclasses

@@ -3,8 +3,11 @@ iterative Bayesian filter (PyPI `grainlearning`, made for YADE models of granula
 model is any function from a parameter vector to the bench responses (the cone index, c and φ of the shear box,
 ...), and the targets are the soil's measured values, never a hole's.
 
-The targets are read by GrainLearning as one observable's sequence of "steps", one per response; its likelihood's
-covariance scales with each target's square, so every response weighs by its relative error; the posterior
+Each target is a range, its stated uncertainty (lo, hi). GrainLearning reads the responses as one observable's
+sequence of "steps", one per response, each in units of its target's width: the k-th as k + 1 + (value - lo) /
+(hi - lo), so its target's middle reads k + 1.5 (distinct middles: GrainLearning's error divides by their spread),
+under one covariance for every step (`scale_cov_with_max`). A miss so weighs by how many of its own ranges it is (a
+response whose target is small but wide, sand's c of 0-12 kPa, weighs no more than a narrow one); the posterior
 after the last step holds them all.
 """
 from __future__ import annotations
@@ -14,47 +17,55 @@ import numpy as np
 HOLE_METRICS = {"L0", "L1", "L2", "L2_surface", "h1", "C", "pass_rate"}   # never a soil's target
 
 
-def untested(value, target) -> float:
-    """A response the model could not give (NaN: its test stopped) reads as a miss a thousand times its target,
-    so its sample weighs nothing and the filter carries on.
+MIDDLE = 1.5            # a target's middle in units of its range: 1 + (value - lo) / (hi - lo)
 
-    >>> untested(float("nan"), 20.0), untested(3.0, 20.0)
-    (20000.0, 3.0)
+
+def in_ranges(value, target) -> float:
+    """A response in units of its target's range (lo, hi): the range's middle reads 1.5. A response the model could
+    not give (NaN: its test stopped) reads as a miss a thousand ranges off, so its sample weighs nothing and the
+    filter carries on.
+
+    >>> in_ranges(6.0, (0.0, 12.0)), in_ranges(38.0, (28.0, 38.0)), in_ranges(float("nan"), (20.0, 35.0))
+    (1.5, 2.0, 1000.0)
     """
-    value = float(value)
-    return value if np.isfinite(value) else 1000.0 * float(target)
+    value, (lo, hi) = float(value), map(float, target)
+    return 1.0 + (value - lo) / (hi - lo) if np.isfinite(value) else 1000.0
 
 
 def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations: int = 4,
               seed_ess: float = 0.3, seed: int = 0, batch: bool = False) -> dict:
     """Fit `bounds`' parameters ({name: (lo, hi)}) so that model(params dict) -> {response: value} meets `targets`
-    ({response: value}). Returns the posterior's mean, its coefficient of variation and the most probable sample,
-    per parameter, and the ensemble of the last iteration (its parameters and weights). `seed`: the resampling's
-    random state (the first samples are an unscrambled Halton sequence), so a calibration repeats itself.
-    `batch`: the model takes an iteration's list of parameter dicts at once and returns their responses in order
-    (so it can run them side by side)."""
+    ({response: (lo, hi)}, each its stated uncertainty). Returns the posterior's mean, its coefficient of variation
+    and the most probable sample, per parameter, and the ensemble of the last iteration (its parameters and
+    weights). `seed`: the resampling's random state (the first samples are an unscrambled Halton sequence), so a
+    calibration repeats itself. `batch`: the model takes an iteration's list of parameter dicts at once and returns
+    their responses in order (so it can run them side by side)."""
     from grainlearning import BayesianCalibration, DynamicSystem
     names, responses = list(bounds), list(targets)
     holes = sorted(set(responses) & HOLE_METRICS)
     if holes:
         raise ValueError(f"calibrate: target(s) {', '.join(holes)} are hole metrics: allowed only bench responses "
                          "(a soil is calibrated on its own tests, never on the holes it is judged by)")
-    obs = np.array([[float(targets[r]) for r in responses]])
-    if np.any(obs == 0) or len(responses) < 2:
-        raise ValueError("calibrate: allowed two targets or more, none of them 0 (each scales its own error)")
+    bad = [r for r in responses if len(targets[r]) != 2 or not float(targets[r][0]) < float(targets[r][1])]
+    if bad or len(responses) < 2:
+        raise ValueError(f"calibrate: target {bad[0] if bad else ''}: allowed two targets or more, each a range "
+                         "(lo, hi) with lo < hi (its width scales its misses)")
+    step = np.arange(len(responses))
+    obs = (MIDDLE + step)[None, :]
 
     def run(calib):
         rows = [dict(zip(names, map(float, row))) for row in calib.system.param_data]
         outs = model(rows) if batch else [model(row) for row in rows]
-        calib.system.set_sim_data([np.array([[untested(out[r], targets[r]) for r in responses]]) for out in outs])
+        calib.system.set_sim_data([np.array([[in_ranges(out[r], targets[r]) for r in responses]]) + step for out in outs])
 
     calib = BayesianCalibration.from_dict({
         "num_iter": iterations, "callback": run, "save_fig": -1,
         "system": {"system_type": DynamicSystem, "param_names": names,
                    "param_min": [float(bounds[n][0]) for n in names], "param_max": [float(bounds[n][1]) for n in names],
                    "num_samples": samples, "obs_data": obs, "obs_names": ["response"],
-                   "ctrl_data": np.arange(len(responses)), "inv_obs_weight": [1.0], "sim_name": "soil"},
-        "inference": {"Bayes_filter": {"ess_target": seed_ess}, "sampling": {"max_num_components": 2, "random_state": seed}},
+                   "ctrl_data": step, "inv_obs_weight": [1.0], "sim_name": "soil"},
+        "inference": {"Bayes_filter": {"ess_target": seed_ess, "scale_cov_with_max": True},
+                      "sampling": {"max_num_components": 2, "random_state": seed}},
     })
     import contextlib
     import io

@@ -200,8 +200,9 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
         history.append(out)
         return out
 
-    post = bayes(model_batch, {r: float(targets.loc[r, "value"]) for r in RESPONSES}, cfg["bounds"],
-                 samples=int(cfg["samples"]), iterations=int(cfg["iterations"]), batch=True)
+    ranges = {r: (float(targets.loc[r, "lo"]), float(targets.loc[r, "hi"])) for r in RESPONSES}
+    post = bayes(model_batch, ranges, cfg["bounds"], samples=int(cfg["samples"]), iterations=int(cfg["iterations"]),
+                 batch=True)
     table = pd.DataFrame([{**r, "iteration": i + 1} for i, rows in enumerate(history) for r in rows])
     table["weight_last"] = np.nan
     last = table["iteration"] == table["iteration"].max()
