@@ -15,6 +15,7 @@ from scripts.parts import GRAIN_MASK
 
 MM = 1e-3
 SLEEP_MASK = GRAIN_MASK | 0b1000   # a sleeping grain (awake window): meets awake grains, walls, tools; no other sleeper
+GRAIN_MASKS = (GRAIN_MASK, SLEEP_MASK)
 # A sleeper also sits in a second subdomain (Body.subdomain 1), and YADE's per-body loops (Newton's integration, the
 # force reset) run over the scene's subdomain only once its body lists are in use (BodyContainer.useRedirection): a
 # sleeper is still in the collider and in every contact, but no longer visited at every step for nothing. The same
@@ -28,11 +29,15 @@ RESTLESS = 0.02             # × the tip speed: a grain behind the window sleeps
 class AwakeWindow:
     """Only the soil from `behind` mm behind to `ahead` mm ahead of the tools' reach moves (module doc); `move`
     shifts the window with the axis, and books the stored energy's jump as `window` in the energy balance (the
-    bonds between sleepers are dropped; a woken grain's come back new)."""
+    bonds between sleepers are dropped; a woken grain's come back new). `intact_bonds`: (normal, shear) cohesion,
+    Pa, of the undisturbed soil's bonds when a contact made after disturbance gets less (the soil's
+    new_contact_cohesion below 1): the contacts a woken grain makes are the undisturbed soil's and get them
+    (`rebond`), not the disturbed soil's share."""
 
-    def __init__(self, awake, grain_ids, detector, law, motion, tip_speed: float):
+    def __init__(self, awake, grain_ids, detector, law, motion, tip_speed: float, intact_bonds=None):
         self.behind, self.ahead = awake
         self.grain_ids, self.detector, self.law, self.motion = grain_ids, detector, law, motion
+        self.intact_bonds = intact_bonds
         self.restless = RESTLESS * tip_speed
         disk, lay = motion.disk, motion.lay
         # the tools touch the soil within sqrt(R² - H²) of the axis (a punch's tip at the surface), widened by the
@@ -64,14 +69,17 @@ class AwakeWindow:
         st = self.state
         x, t0 = self.motion.axis0[0] + self.motion.v * O.time, time.time()
         e0 = self.law.elasticEnergy() if elastic_now is None else elastic_now
-        woke, slept, lost, v_rear, v_front = sleep_outside(self.grain_ids, x - self.reach_x - self.behind * MM,
-                                                           x + self.reach_x + self.ahead * MM, self.detector,
-                                                           self.restless)
+        woken, slept, lost, v_rear, v_front = sleep_outside(self.grain_ids, x - self.reach_x - self.behind * MM,
+                                                            x + self.reach_x + self.ahead * MM, self.detector,
+                                                            self.restless)
+        woke = len(woken)
         self.n_awake += woke - slept
         st["slept_vmax"], st["front_vmax"] = max(st["slept_vmax"], v_rear), max(st["front_vmax"], v_front)
         st["window_x"] = x
         st["moves"] += 1
         O.run(1, True)
+        if self.intact_bonds and woken:
+            rebond(woken, self.intact_bonds)
         st["window_energy"] += self.law.elasticEnergy() - e0 - lost
         st["awake_steps"] += self.n_awake
         st["window_s"] += time.time() - t0
@@ -82,6 +90,25 @@ class AwakeWindow:
                 "awake_fraction": st["awake_steps"] / (n_particles * steps),
                 "slept_vmax_m_s": st["slept_vmax"], "front_vmax_m_s": st["front_vmax"],
                 "moves": int(st["moves"]), "move_wall_s": st["window_s"]}
+
+
+def rebond(woken, intact_bonds) -> int:
+    """Give the grain-grain contacts the woken grains made in the step just run YADE's intact bond (CohFrictPhys:
+    the cohesion times the smaller radius squared, as its Ip2 sets a bond); returns how many."""
+    from yade import O
+    normal, shear = intact_bonds
+    made = O.iter - 1
+    woken = set(woken)
+    n = 0
+    for i in woken:
+        for I in O.interactions.withBody(i):
+            other = I.id2 if I.id1 == i else I.id1
+            if I.iterMadeReal != made or (other in woken and other < i) or O.bodies[other].mask not in GRAIN_MASKS:
+                continue
+            r2 = min(O.bodies[i].shape.radius, O.bodies[other].shape.radius) ** 2
+            I.phys.normalAdhesion, I.phys.shearAdhesion, I.phys.cohesionBroken = normal * r2, shear * r2, False
+            n += 1
+    return n
 
 
 def refresh_body_lists():
@@ -97,10 +124,10 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
     of it, or behind it and slower than `restless` (m/s), sleeps: held still (not dynamic), mask SLEEP_MASK,
     so the collider pairs it with awake grains, walls and tools but never with another sleeper, and its
     contacts with sleepers are dropped. What a sleeper meets still pushes on it, and it on them, as a fixed
-    grain would. Returns (woken, put to sleep, their kinetic energy lost (J), the fastest slept behind and
-    ahead (m/s)). The collider then sorts again: a woken grain's pairs with sleepers are new."""
+    grain would. Returns (the woken grains' ids, how many put to sleep, their kinetic energy lost (J), the fastest
+    slept behind and ahead (m/s)). The collider then sorts again: a woken grain's pairs with sleepers are new."""
     from yade import O, Vector3
-    woke = slept = 0
+    woke, slept = [], 0
     lost = v_rear = v_front = 0.0
     for i in grain_ids:
         b = O.bodies[i]
@@ -108,7 +135,7 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
         if b.mask == SLEEP_MASK:
             if x_rear <= x <= x_front:
                 b.dynamic, b.mask, b.subdomain = True, GRAIN_MASK, 0
-                woke += 1
+                woke.append(i)
             continue
         if x_rear <= x <= x_front:
             continue

@@ -185,7 +185,8 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         setattr(detector, key, value)
     tip_speed = motion.v + lay.omega * lay.tip_reach * MM
     motion.sleeve_speed_limit = GUARD_SPEED * tip_speed
-    window = AwakeWindow(params["awake_mm"], grain_ids, detector, law, motion, tip_speed) \
+    intact = (soil.normal_cohesion, soil.shear_cohesion) if soil.new_contact_cohesion != 1.0 else None
+    window = AwakeWindow(params["awake_mm"], grain_ids, detector, law, motion, tip_speed, intact) \
         if params.get("awake_mm") else None
     if resumed and window:
         if "elastic_J" not in ck:
