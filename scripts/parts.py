@@ -133,6 +133,24 @@ def as_tool(ids: list) -> list:
     return ids
 
 
+def touching(i: int) -> str:
+    """What grain `i` touches, for a guard's diagnostic: tool bodies, grains and how many of those it is bonded to.
+
+    A grain that leaves the box alone was flung; one still on a tool, or bonded to a clod, was carried."""
+    from yade import O
+    tools = grains = bonded = 0
+    for I in O.interactions.withBody(i):
+        if not I.isReal:
+            continue
+        other = O.bodies[I.id2 if I.id1 == i else I.id1]
+        if other.mask & TOOL_SELF:
+            tools += 1
+        elif other.mask & GRAIN_MASK == GRAIN_MASK:
+            grains += 1
+            bonded += not getattr(I.phys, "cohesionBroken", True) and getattr(I.phys, "normalAdhesion", 0.0) > 0
+    return f"touching {tools} tool bodies and {grains} grains ({bonded} bonded)"
+
+
 def guard(grain_ids, meta: dict, z_surface: float, speed_limit: float, ke_limit: float) -> float:
     """The stability guard: raises RuntimeError naming the cause on a non-finite grain, a grain out of the
     bed's box (ESCAPE m beyond its walls and floor (a periodic strip's y: anywhere), ESCAPE_ABOVE m over its
@@ -150,7 +168,8 @@ def guard(grain_ids, meta: dict, z_surface: float, speed_limit: float, ke_limit:
         if not (math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2]) and math.isfinite(vel)):
             raise RuntimeError(f"grain {i} has a non-finite position or velocity at t = {O.time:.4f} s")
         if not (x0 < p[0] < x1 and y0 < p[1] < y1 and z0 < p[2] < z1):
-            raise RuntimeError(f"grain {i} left the box at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) m, t = {O.time:.4f} s")
+            raise RuntimeError(f"grain {i} left the box at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) m, t = {O.time:.4f} s, "
+                               f"at {vel:.2f} m/s, {touching(i)}")
         if vel > vmax:
             vmax, worst = vel, i
     if vmax > speed_limit:
