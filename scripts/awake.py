@@ -11,7 +11,7 @@ import math
 import os
 import time
 
-from scripts.parts import GRAIN_MASK
+from scripts.parts import GRAIN_MASK, PARKED_MASK
 
 MM = 1e-3
 SLEEP_MASK = GRAIN_MASK | 0b1000   # a sleeping grain (awake window): meets awake grains, walls, tools; no other sleeper
@@ -52,7 +52,7 @@ class AwakeWindow:
     def count_awake(self):
         """The grains awake now, from the masks (a resumed run's sleepers were saved with it)."""
         from yade import O
-        self.n_awake = sum(1 for i in self.grain_ids if O.bodies[i].mask != SLEEP_MASK)
+        self.n_awake = sum(1 for i in self.grain_ids if O.bodies[i].mask not in (SLEEP_MASK, PARKED_MASK))
         for i in self.grain_ids:            # a saved scene's subdomains follow this process's SKIP_SLEEPERS
             O.bodies[i].subdomain = SLEEP_SUBDOMAIN if O.bodies[i].mask == SLEEP_MASK else 0
         refresh_body_lists()
@@ -131,6 +131,8 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
     lost = v_rear = v_front = 0.0
     for i in grain_ids:
         b = O.bodies[i]
+        if b.mask == PARKED_MASK:           # splashed out of the box (scripts/parts.py guard): never woken
+            continue
         x = b.state.pos[0]
         if b.mask == SLEEP_MASK:
             if x_rear <= x <= x_front:

@@ -176,7 +176,7 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         law = part.contact_law(O)
         motion.state.update(ck["motion"])
         recorder.state.update(ck["recorder"])
-        energy0, vmax = ck["energy0"], ck["vmax"]
+        energy0, vmax, splashes = ck["energy0"], ck["vmax"], ck.get("splashes", [])
         resumed_at = [*ck.get("resumed_at", []), int(O.iter)]
         wall0, cpu0 = wall0 - ck["wall_s"], cpu0 - ck["cpu_s"]
         log(f"run {params['id']}: resumed at step {O.iter} of {n_steps} ({ck['wall_s']:.0f} s of wall time done)")
@@ -203,7 +203,7 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         part.bond_new_contacts(O, soil)
         hook_failed()
         energy0 = energy_now(law, motion, window)
-        vmax = 0.0
+        vmax, splashes = 0.0, []
         if window:
             window.move()
     n_end = min(n_steps, stop_at or n_steps)
@@ -221,11 +221,12 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         hook_failed()
         if window:
             window.state["awake_steps"] += window.n_awake * chunk
-        vmax = max(vmax, guard(grain_ids, meta, z_surface, GUARD_SPEED * tip_speed, 0.5 * bed_mass * tip_speed ** 2))
+        vmax = max(vmax, guard(grain_ids, meta, z_surface, GUARD_SPEED * tip_speed, 0.5 * bed_mass * tip_speed ** 2,
+                               splashes))
         if checkpoint_every and time.time() - last_save > checkpoint_every and O.iter < n_steps:
             save_checkpoint(out, {"motion": motion.state, "recorder": recorder.state,
                                   "window": window.state if window else None, "energy0": energy0, "vmax": vmax,
-                                  "iter": O.iter, "resumed_at": resumed_at, "wall_s": time.time() - wall0,
+                                  "splashes": splashes, "iter": O.iter, "resumed_at": resumed_at, "wall_s": time.time() - wall0,
                                   "cpu_s": time.process_time() - cpu0,
                                   "elastic_J": law.elasticEnergy()})
             last_save = time.time()
@@ -279,7 +280,8 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
                                                 [r[1] / MM for r in recorder.state["rows"]],
                                                 lay.phi0, lay.pitch, disk.R, len(lay.hole_x)),
                "axis_sink_mm": motion.sink_summary(O.iter),
-               "vmax_m_s": vmax, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool.ids), "energy_J": energy,
+               "vmax_m_s": vmax, "splashes": splashes, "tip_speed_m_s": tip_speed, "tool_bodies": len(tool.ids),
+               "energy_J": energy,
                "density_scale": k_density, "tilled": params.get("tilled"),
                "inertial_number": inertial_number(tip_speed, disk.D * MM, 2 * meta["radius"],
                                                   meta["grain_density"] * k_density, soil.cone_index),

@@ -19,6 +19,9 @@ GRAIN_MASK, TOOL_MASK, TOOL_SELF = 0b011, 0b110, 0b100   # grains meet grains, w
 # tools meet grains only: bodies with the same mask sharing a bit with the collider's avoidSelfInteractionMask never meet
 GUARD_SPEED = 20.0          # a grain faster than this × the tip speed is a blow-up
 ESCAPE, ESCAPE_ABOVE = 0.02, 0.3   # m: a grain this far past the walls or floor, or above the surface, has left
+PARKED_MASK = 0             # a splashed grain taken out of the scene (guard): it meets nothing
+PARKED_DEPTH = 0.1          # m under the floor, where a parked grain is kept (no surface probe or column reaches it)
+SPLASH_LIMIT = 20           # grains a scene may lose to splashes before the guard calls it a fault
 
 
 def punch_surface(u_top: float, u_tip: float, radius: float, h: float, a: float):
@@ -133,10 +136,19 @@ def as_tool(ids: list) -> list:
     return ids
 
 
-def touching(i: int) -> str:
-    """What grain `i` touches, for a guard's diagnostic: tool bodies, grains and how many of those it is bonded to.
+def park(b, L: float, W: float):
+    """Take a splashed grain out of the scene: held still PARKED_DEPTH under the floor of the L × W bed, below
+    where it left, meeting nothing (it stays among the grains the run saves, so their order holds)."""
+    from yade import Vector3
+    p = b.state.pos
+    b.state.vel, b.state.angVel = Vector3(0, 0, 0), Vector3(0, 0, 0)
+    b.state.pos = Vector3(min(max(p[0], 0.0), L), min(max(p[1], 0.0), W), -PARKED_DEPTH)
+    b.dynamic, b.mask = False, PARKED_MASK
 
-    A grain that leaves the box alone was flung; one still on a tool, or bonded to a clod, was carried."""
+
+def contacts_of(i: int) -> tuple[int, int, int]:
+    """What grain `i` touches: (tool bodies, grains, grains it is bonded to). A grain that leaves the box touching
+    nothing was flung; one still on a tool, or bonded to a clod, was carried."""
     from yade import O
     tools = grains = bonded = 0
     for I in O.interactions.withBody(i):
@@ -148,14 +160,17 @@ def touching(i: int) -> str:
         elif other.mask & GRAIN_MASK == GRAIN_MASK:
             grains += 1
             bonded += not getattr(I.phys, "cohesionBroken", True) and getattr(I.phys, "normalAdhesion", 0.0) > 0
-    return f"touching {tools} tool bodies and {grains} grains ({bonded} bonded)"
+    return tools, grains, bonded
 
 
-def guard(grain_ids, meta: dict, z_surface: float, speed_limit: float, ke_limit: float) -> float:
+def guard(grain_ids, meta: dict, z_surface: float, speed_limit: float, ke_limit: float, splashes: list | None = None) -> float:
     """The stability guard: raises RuntimeError naming the cause on a non-finite grain, a grain out of the
     bed's box (ESCAPE m beyond its walls and floor (a periodic strip's y: anywhere), ESCAPE_ABOVE m over its
     surface), a grain faster than
-    `speed_limit` (m/s) or kinetic energy above `ke_limit` (J); else returns the fastest grain's speed."""
+    `speed_limit` (m/s) or kinetic energy above `ke_limit` (J); else returns the fastest grain's speed.
+    With `splashes` (a list the scene keeps): a grain out of the box that touches nothing and is slower than the
+    limit was splashed out by a tool, not blown up: it is parked (`park`), noted in `splashes` and the scene goes
+    on, up to SPLASH_LIMIT of them."""
     from yade import O, utils
     L, W, _ = meta["size_m"]
     (x0, x1), (y0, y1), (z0, z1) = (-ESCAPE, L + ESCAPE), (-ESCAPE, W + ESCAPE), (-ESCAPE, z_surface + ESCAPE_ABOVE)
@@ -164,12 +179,22 @@ def guard(grain_ids, meta: dict, z_surface: float, speed_limit: float, ke_limit:
     vmax, worst = 0.0, None
     for i in grain_ids:
         b = O.bodies[i]
+        if b.mask == PARKED_MASK:
+            continue
         p, vel = b.state.pos, b.state.vel.norm()
         if not (math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2]) and math.isfinite(vel)):
             raise RuntimeError(f"grain {i} has a non-finite position or velocity at t = {O.time:.4f} s")
         if not (x0 < p[0] < x1 and y0 < p[1] < y1 and z0 < p[2] < z1):
-            raise RuntimeError(f"grain {i} left the box at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) m, t = {O.time:.4f} s, "
-                               f"at {vel:.2f} m/s, {touching(i)}")
+            tools, grains, bonded = contacts_of(i)
+            where = (f"grain {i} left the box at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) m, t = {O.time:.4f} s, at "
+                     f"{vel:.2f} m/s, touching {tools} tool bodies and {grains} grains ({bonded} bonded)")
+            if splashes is None or vel > speed_limit or tools or grains:
+                raise RuntimeError(where)
+            if len(splashes) >= SPLASH_LIMIT:
+                raise RuntimeError(f"{where}: more than {SPLASH_LIMIT} grains splashed out of the box")
+            splashes.append({"grain": i, "t_s": O.time, "pos_m": [p[0], p[1], p[2]], "speed_m_s": vel})
+            park(b, L, W)
+            continue
         if vel > vmax:
             vmax, worst = vel, i
     if vmax > speed_limit:
