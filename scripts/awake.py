@@ -72,8 +72,7 @@ class AwakeWindow:
         woken, slept, lost, v_rear, v_front = sleep_outside(self.grain_ids, x - self.reach_x - self.behind * MM,
                                                             x + self.reach_x + self.ahead * MM, self.detector,
                                                             self.restless)
-        woke = len(woken)
-        self.n_awake += woke - slept
+        self.n_awake += len(woken) - slept
         st["slept_vmax"], st["front_vmax"] = max(st["slept_vmax"], v_rear), max(st["front_vmax"], v_front)
         st["window_x"] = x
         st["moves"] += 1
@@ -127,7 +126,7 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
     grain would. Returns (the woken grains' ids, how many put to sleep, their kinetic energy lost (J), the fastest
     slept behind and ahead (m/s)). The collider then sorts again: a woken grain's pairs with sleepers are new."""
     from yade import O, Vector3
-    woke, slept = [], 0
+    woken, slept = [], 0
     lost = v_rear = v_front = 0.0
     for i in grain_ids:
         b = O.bodies[i]
@@ -137,7 +136,7 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
         if b.mask == SLEEP_MASK:
             if x_rear <= x <= x_front:
                 b.dynamic, b.mask, b.subdomain = True, GRAIN_MASK, 0
-                woke.append(i)
+                woken.append(i)
             continue
         if x_rear <= x <= x_front:
             continue
@@ -159,8 +158,8 @@ def sleep_outside(grain_ids, x_rear: float, x_front: float, collider, restless: 
                 O.interactions.erase(I.id1, I.id2)
     if slept:       # erase only resets a pair to potential, which becomes real again while the bounds overlap: the
         O.interactions.eraseNonReal()   # pairs go, and the full sort below makes the potential ones it may again
-    if woke or slept:
+    if woken or slept:
         refresh_body_lists()
         collider.doSort = True
         collider()
-    return woke, slept, lost, v_rear, v_front
+    return woken, slept, lost, v_rear, v_front

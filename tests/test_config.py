@@ -112,7 +112,6 @@ def test_bad_graded_resolution_is_refused(tmp_path):
     """A graded bed (configs/resolutions.toml) whose coarse grains overlap the fine sizes, whose fine zone does
     not fit the strip or leaves the plate outside it, or whose sides are periodic, is refused before YADE starts."""
     from analysis.core.config import load_resolution
-    from analysis.core.run_spec import plan
     p = tmp_path / "r.toml"
     p.write_text("[g]\nradius = 0.004\nspread = 0.25\ncoarse_radius = 0.006\nfine_width = 0.1\nfine_depth = 0.09\n")
     with pytest.raises(ConfigError, match=r"g: a graded bed needs coarse_radius \(1 - spread\) > radius \(1 \+ spread\)"):
@@ -131,7 +130,6 @@ def test_every_graded_preset_keeps_its_tools_in_the_fine_zone():
     radii of fine grains beyond it (configs/presets.toml, resolutions.toml, machine.toml); the graded study's
     shallower zone (configs/studies/graded.toml) is a study's question, not a preset."""
     from analysis.core.config import load_preset, load_resolution
-    from analysis.core.run_spec import plan
     from analysis.core.config import preset_names
     graded = [name for name in preset_names() if load_resolution(load_preset(name).resolution).graded]
     assert {"graded", "validation_graded"} <= set(graded)
@@ -243,7 +241,6 @@ def test_a_resolution_by_its_grain_radius_is_the_same_resolution_and_the_same_ru
     """r6 and medium name one resolution: the same grains, the run planned with either has one id (kept runs and
     beds keep their keys); an unknown name lists both kinds."""
     from analysis.core.config import load_resolution
-    from analysis.core.run_spec import plan
     assert load_resolution("r6") == load_resolution("medium") and load_resolution("r6").radius == 0.006
     for alias, name in (("r8", "coarse"), ("r5", "quick"), ("r4", "default"), ("r3", "fine")):
         assert load_resolution(alias).name == name and load_resolution(alias).radius == float(alias[1:]) / 1000

@@ -119,10 +119,16 @@ def bench_soil(soil: Soil, path=None) -> Soil:
         raise ConfigError(f"{path}: no [bench_posterior]: soils = 'bench' needs the soil calibrated on its bench tests "
                           f"(./holes calibrate --soil {soil.name} --bench); allowed soils = 'table' until then")
     values = {k: v["mean"] for k, v in post.items() if k in SOIL_FIELDS and isinstance(v, dict)}
-    values.update(post.get("fixed", {}))
-    if "normal_cohesion" in values:
-        values["shear_cohesion"] = values["normal_cohesion"]
-    return soil_with(soil, values)
+    return soil_with(soil, equal_bonds({**values, **post.get("fixed", {})}))
+
+
+def equal_bonds(values: dict) -> dict:
+    """Contact parameters with the shear bond set equal to the normal one, as the bench calibration varies them.
+
+    >>> equal_bonds({"normal_cohesion": 3e5, "friction_deg": 12.0})
+    {'normal_cohesion': 300000.0, 'friction_deg': 12.0, 'shear_cohesion': 300000.0}
+    """
+    return {**values, "shear_cohesion": values["normal_cohesion"]} if "normal_cohesion" in values else dict(values)
 
 
 def soil_with(soil: Soil, overrides: dict) -> Soil:

@@ -105,10 +105,8 @@ def rounded(params: dict) -> dict:
 def overrides(params: dict, fixed: dict | None = None) -> list[str]:
     """The scenes' --test-set items for a parameter set and the calibration's fixed parameters (the shear bond
     kept equal to the normal bond)."""
-    items = {**(fixed or {}), **rounded(params)}
-    if "normal_cohesion" in items:
-        items["shear_cohesion"] = items["normal_cohesion"]
-    return [f"{k}={v}" for k, v in items.items()]
+    from analysis.core.soil_config import equal_bonds
+    return [f"{k}={v}" for k, v in equal_bonds({**(fixed or {}), **rounded(params)}).items()]
 
 
 def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
