@@ -114,6 +114,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --bench: no calibration; the cone check of these finished evaluations of the soil "
                         "(ids of results/calibration/bench/<soil>/, comma-separated), --workers at a time: the cone "
                         "across the bench's region (results/calibration/bench/<soil>-cones.csv)")
+    p.add_argument("--size-check", action="store_true",
+                   help="with --bench: no calibration; the posterior mean's bench responses on the check packings in "
+                        "the configured box and one grown by half (results/calibration/bench/<soil>-size.csv)")
     p.set_defaults(func=cmd_calibrate)
     p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "
                        "cone-to-particle ratio, core density (results/calibration/cone_checks.csv, .png)")

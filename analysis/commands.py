@@ -49,8 +49,9 @@ def cmd_params(args) -> int:
 def cmd_calibrate(args) -> int:
     if args.bench:
         return cmd_calibrate_bench(args)
-    if args.cones:
-        print("calibrate: --cones: allowed only with --bench (the cone of bench evaluations)", file=sys.stderr)
+    if args.cones or args.size_check:
+        flag = "--cones" if args.cones else "--size-check"
+        print(f"calibrate: {flag}: allowed only with --bench (a check of the bench calibration)", file=sys.stderr)
         return 2
     from analysis.soil import calibrate
     from analysis.core.bed_spec import check_size
@@ -163,6 +164,20 @@ def cmd_calibrate_bench(args) -> int:
             print(f"calibrate {args.soil}: {e}", file=sys.stderr)
             return 1
         print(table.to_string(index=False))
+        return 0
+    if args.size_check and args.cones:
+        print("calibrate: --size-check with --cones: allowed one of them", file=sys.stderr)
+        return 2
+    if args.size_check:
+        try:
+            verdict = bench.size_check(args.soil, cfg)
+        except ConfigError as e:
+            print(f"calibrate: {e}", file=sys.stderr)
+            return 2
+        except RuntimeError as e:
+            print(f"calibrate {args.soil}: {e}", file=sys.stderr)
+            return 1
+        print(verdict.round(2).to_string(index=False))
         return 0
     try:
         post = bench.calibrate(args.soil, cfg)

@@ -186,7 +186,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                                     + params["travel_sign"] * speed))) * mm      # P's fastest, ground frame (m/s)
     log(f"duckbeak {params['id']}: {len(grain_ids)} grains, bed {meta['key']}, pass {1000 * t_pass:.0f} ms "
         f"({n_pass} steps of {O.dt:.2e} s) + settling for up to {n_relax} steps; tip to {ps['depth']:.1f} mm")
-    vmax, v_now = 0.0, math.inf
+    vmax, v_now, splashes = 0.0, math.inf, []
     while O.iter < n_pass or (O.iter < n_pass + n_relax and v_now > scene["settled_speed"]):
         if O.iter >= n_pass and st["on"]:
             st["on"] = False
@@ -194,7 +194,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
             for i in tool_ids:
                 O.bodies.erase(i)
         O.run(min(GUARD_EVERY, (n_pass if st["on"] else n_pass + n_relax) - O.iter), True)
-        v_now = guard(grain_ids, meta, z_surface, GUARD_SPEED * top_speed, 0.5 * bed_mass * top_speed ** 2)
+        v_now = guard(grain_ids, meta, z_surface, GUARD_SPEED * top_speed, 0.5 * bed_mass * top_speed ** 2, splashes)
         vmax = max(vmax, v_now)
         log(f"duckbeak: t {1000 * O.time:5.1f} ms of {1000 * t_pass:.0f} + settling (fastest grain {v_now:.2f} m/s, "
             f"settled below {scene['settled_speed']:g})  wall {time.time() - wall0:.0f} s")
@@ -207,7 +207,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
                "threads": threads, "particle_steps_per_s": len(grain_ids) * O.iter / wall, "sim_time_s": O.time,
                "z_surface_m": z_surface, "holes": 1, "lead_in": 0,
                "hole_x_mm": [ps["x_bottom"] + params["x_shift_mm"]], "tip_min_depth_mm": [-1000 * st["tip_min"]],
-               "path_depth_mm": ps["depth"], "vmax_m_s": vmax, "settled": settled, "v_end_m_s": v_now,
+               "path_depth_mm": ps["depth"], "vmax_m_s": vmax, "splashes": splashes, "settled": settled, "v_end_m_s": v_now,
                "tool_top_speed_m_s": top_speed}
     atomic_write(out / "summary.json", json.dumps(summary, indent=1))
     return summary

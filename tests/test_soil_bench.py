@@ -308,3 +308,38 @@ def test_the_cone_runs_on_chosen_evaluations_and_keeps_every_one(tmp_path, monke
     assert saved.cone_kpa.iloc[0] == pytest.approx(json.loads(kept[0].read_text())["normal_cohesion"] / 500, rel=1e-3)
     with pytest.raises(ConfigError, match="s1-0000000000"):
         bench.cones("clay", ["s1-0000000000"], cfg, tmp_path)
+
+
+def test_the_size_check_runs_the_posterior_in_both_boxes_and_judges_each_response_by_the_packing_scatter(tmp_path,
+                                                                                                       monkeypatch):
+    """`calibrate --bench --size-check`: the posterior mean on every check packing in the configured box and in the
+    grown one; a response whose mean the grown box moves by more than the packings' SD fails, one it moves less
+    passes; <soil>-size.csv keeps every evaluation. A grown box no larger than the configured one is refused."""
+    cfg = bench.load_config(soil="clay")
+    post = {"normal_cohesion": 3e5, "friction_deg": 12.0, "new_contact_cohesion": 0.001, "rolling_friction": 0.1}
+    (tmp_path / "clay-posterior.json").write_text(json.dumps({"mean": post}))
+    seen = []
+
+    def made_up(soil, seed, params, box, out_dir):
+        seen.append((seed, tuple(box["size_mm"])))
+        assert params == post
+        small = box["size_mm"] == cfg["size_mm"]
+        return {"id": f"s{seed}", "seed": seed, "c_kpa": (28.0 if small else 21.0) + seed,
+                "phi_deg": 27.0 + seed + (0.0 if small else 0.3), "collapse_deg": 35.0 + 2 * seed}
+    monkeypatch.setattr(bench, "evaluate", made_up)
+    verdict = bench.size_check("clay", cfg, tmp_path).set_index("response")
+    assert sorted(seen) == sorted((s, tuple(b)) for s in cfg["check_seeds"] for b in (cfg["size_mm"], cfg["size_check_mm"]))
+    assert verdict.loc["c_kpa", "shift"] == pytest.approx(-7.0) and not verdict.loc["c_kpa", "passes"]
+    assert verdict.loc["phi_deg", "passes"] and verdict.loc["collapse_deg", "passes"]
+    saved = pd.read_csv(tmp_path / "clay-size.csv", comment="#")
+    assert len(saved) == 2 * len(cfg["check_seeds"]) and set(saved.box) == {"configured", "grown"}
+    text = bench.CONFIG.read_text().replace("size_check_mm = [225, 225, 150]", "size_check_mm = [225, 150, 100]")
+    (tmp_path / "b.toml").write_text(text)
+    with pytest.raises(ConfigError, match="size_check_mm"):
+        bench.load_config(tmp_path / "b.toml")
+
+
+def test_the_size_check_asks_for_the_bench(capsys):
+    from analysis.cli import main
+    assert main(["calibrate", "--soil", "clay", "--size-check"]) == 2
+    assert "--size-check: allowed only with --bench" in capsys.readouterr().err

@@ -56,6 +56,10 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
         for name, rng in ranges.items():
             if len(rng) != 2 or not rng[0] < rng[1]:
                 raise ConfigError(f"{path}: {where}.{name} = {rng}: allowed [lo, hi] with lo < hi")
+    grown = bench.get("size_check_mm")
+    if grown is not None and (len(grown) != 3 or any(float(g) <= float(b) for g, b in zip(grown, bench["size_mm"]))):
+        raise ConfigError(f"{path}: bench.size_check_mm = {grown}: allowed three lengths, each above size_mm's "
+                          f"{bench['size_mm']}")
     if soil is not None:
         bounds.update(per_soil.get(soil, {}))
     if len(bounds) < 3:
@@ -265,6 +269,60 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
         out["cone_kpa"] = cone_check(soil, params, cfg, out_dir)
     atomic_write(Path(out_dir) / f"{soil}-check.json", json.dumps(out, indent=1))
     return out
+
+
+def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
+    """The bench's size check at the soil's posterior mean (<out_dir>/<soil>-posterior.json): its responses on the
+    check packings in the configured box and collapse column ([bench] size_mm, the check's evaluations, reused) and
+    in one grown by half each way (size_check_mm). Writes <soil>-size.csv (every evaluation) and returns the
+    verdict per response (`size_verdict`)."""
+    cfg = cfg or load_config(soil=soil)
+    if "size_check_mm" not in cfg:
+        raise ConfigError(f"{CONFIG}: [bench] lacks size_check_mm (the grown box, mm)")
+    post_path = Path(out_dir) / f"{soil}-posterior.json"
+    if not post_path.exists():
+        raise ConfigError(f"{post_path}: no posterior of {soil}: run `./holes calibrate --soil {soil} --bench` first")
+    params = {k: float(v) for k, v in json.loads(post_path.read_text())["mean"].items()}
+    seeds = [int(s) for s in cfg["check_seeds"]]
+    boxes = {"configured": cfg, "grown": {**cfg, "size_mm": list(cfg["size_check_mm"])}}
+    jobs = [(name, box, s) for name, box in boxes.items() for s in seeds]
+    rows: list = [None] * len(jobs)
+
+    def one(i):
+        name, box, seed = jobs[i]
+        rows[i] = {"box": name, "size_mm": "x".join(f"{v:g}" for v in box["size_mm"]),
+                   **evaluate(soil, seed, params, box, out_dir)}
+    with ThreadPoolExecutor(max_workers=int(cfg["workers"])) as pool:
+        list(pool.map(one, range(len(jobs))))
+    table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
+    atomic_csv(table, Path(out_dir) / f"{soil}-size.csv",
+               f"./holes calibrate --soil {soil} --bench --size-check; {soil}'s posterior mean on packings "
+               f"{','.join(map(str, seeds))} in the configured box and one grown by half")
+    verdict = size_verdict(table)
+    atomic_write(Path(out_dir) / f"{soil}-size.json", json.dumps(verdict.to_dict(orient="records"), indent=1))
+    return verdict
+
+
+def size_verdict(table: pd.DataFrame) -> pd.DataFrame:
+    """Per response: the mean and SD over packings in the configured and the grown box, the shift of the mean and
+    whether it passes: the grown box moves the mean by less than the packings' SD in the configured box.
+
+    >>> t = pd.DataFrame({"box": ["configured"] * 3 + ["grown"] * 3, "c_kpa": [27, 28, 29, 21, 22, 23],
+    ...                   "phi_deg": [27, 28, 29, 27.5, 28.5, 29.5], "collapse_deg": [33, 37, 35, 36, 35, 34]})
+    >>> size_verdict(t)[["response", "shift", "passes"]].to_dict(orient="list")
+    {'response': ['c_kpa', 'phi_deg', 'collapse_deg'], 'shift': [-6.0, 0.5, 0.0], 'passes': [False, True, True]}
+    """
+    rows = []
+    for r in RESPONSES:
+        base = table.loc[table["box"] == "configured", r].to_numpy(float)
+        grown = table.loc[table["box"] == "grown", r].to_numpy(float)
+        sd = float(np.std(base, ddof=1)) if len(base) > 1 else math.nan
+        shift = float(grown.mean() - base.mean())
+        rows.append({"response": r, "configured_mean": float(base.mean()), "configured_sd": sd,
+                     "grown_mean": float(grown.mean()),
+                     "grown_sd": float(np.std(grown, ddof=1)) if len(grown) > 1 else math.nan,
+                     "shift": shift, "passes": bool(abs(shift) < sd)})
+    return pd.DataFrame(rows)
 
 
 def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
