@@ -1,4 +1,6 @@
 """The machine's calibration on clay (analysis/batch/machine.py): the fit through the design's runs, what it refuses."""
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -173,3 +175,26 @@ def test_a_fit_inside_the_design_with_an_interval_wider_than_it_is_not_resolved(
     assert machine.status_of(88, 1.8, (70, 100), (1.0, 2.5), means).startswith("inside the bracket, not resolved")
     assert machine.status_of(78, 1.8, (75, 81), (1.0, 2.5), means) == "extrapolated beyond the bracket"
     assert machine.status_of(88, -0.1, (85, 91), (-1, 0.5), means) == "not physical: a negative spring rate"
+
+
+def test_the_sections_show_the_first_packings_points_deepest_first_and_skip_runs_without_grains(tmp_path, monkeypatch):
+    """calibrate-machine's sections.png: one panel per design point of the first packing with grains, the deepest
+    punch on top; a run kept without its grains, or on another packing, draws nothing."""
+    import shutil
+    from types import SimpleNamespace
+    import analysis.holes.run_report as report
+    runs = {}
+    for name in ("a", "b", "no_grains"):
+        runs[name] = Path(shutil.copytree(ROOT / "tests/data/kept_run", tmp_path / name))
+    (runs["no_grains"] / "state.npz").unlink()
+
+    def case(p, k, seed):
+        return SimpleNamespace(fields={machine.P_KEY: p, machine.K_KEY: k}, params={"seed": seed})
+    drawn, draw = [], report.sections
+    monkeypatch.setattr(report, "sections", lambda folders, labels, out: drawn.append(labels) or draw(folders, labels, out))
+    found = [(case(80, 1, 1), runs["a"]), (case(95, 4, 1), runs["b"]), (case(88, 1, 1), runs["no_grains"]),
+             (case(95, 1, 2), runs["a"])]
+    path = machine.draw_sections(found, tmp_path / "sections.png")
+    assert drawn == [["P 95 mm, spring 4 N/mm, packing 1", "P 80 mm, spring 1 N/mm, packing 1"]]
+    assert path.exists() and path.stat().st_size > 10_000
+    assert machine.draw_sections([(case(80, 1, 1), runs["no_grains"])], tmp_path / "none.png") is None

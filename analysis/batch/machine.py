@@ -216,14 +216,16 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
                  "asleep": bool(c.params.get("awake_mm"))} for c in cases
                 if not (kept / c.id / "summary.json").exists()]
         failures = run_all(todo, workers, threads, runs_dir, bed_dir, scheduler=scheduler, label="calibrate-machine")
-    tables = []
+    tables, found = [], []
     for c in cases:
         if finished(runs_dir, c.id):
             tables.append(run_rows(c, runs_dir / c.id))          # measured and W computed in the run's folder
             keep(runs_dir / c.id, kept / c.id)                    # compare_job's kept files, W with them
+            found.append((c, runs_dir / c.id))
         elif (kept / c.id / "summary.json").exists():
             say(f"calibrate-machine: {c.id} not on this machine; measured again from its kept grains")
             tables.append(run_rows(c, kept / c.id))
+            found.append((c, kept / c.id))
         else:
             say(f"calibrate-machine: {c.id} ({c.label()}) has no finished run; left out")
     command = f"./holes calibrate-machine {shown(design)}"
@@ -233,6 +235,7 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
     rows = pd.concat(tables, ignore_index=True)
     atomic_csv(rows.round(3), out / "machine.csv", stamp(command) + "; one row per hole, mm, N, s; clay only")
     table = fit(rows, want)
+    draw_sections(found, out / "sections.png")
     atomic_csv(table.round(3), out / "machine_fit.csv",
                stamp(command) + f"; fitted on clay's field means only (L2 {want['surface']:g}, h1 {want['h1']:g} mm)")
     machine_path = Path(machine_path) if machine_path else (ROOT / MACHINE if out == ROOT / "results/calibration"
@@ -250,6 +253,21 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures else 0
+
+
+def draw_sections(found: list, path: Path) -> Path | None:
+    """One hole's section at every design point of the first packing that has run, deepest punch first
+    (analysis/holes/run_report.py sections): how far each hole kept the depth its punch went to."""
+    from analysis.holes.run_report import sections
+    if not found:
+        return None
+    first = min(c.params["seed"] for c, _ in found)
+    points = sorted(((c, f) for c, f in found if c.params["seed"] == first and (f / "state.npz").exists()),
+                    key=lambda cf: (-cf[0].fields[P_KEY], cf[0].fields[K_KEY]))
+    if not points:
+        return None
+    labels = [f"P {c.fields[P_KEY]:g} mm, spring {c.fields[K_KEY]:g} N/mm, packing {first}" for c, _ in points]
+    return sections([f for _, f in points], labels, path)
 
 
 def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want: dict,

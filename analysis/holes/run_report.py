@@ -91,3 +91,42 @@ def run(folder) -> list[Path]:
     fig.savefig(written[-1], dpi=110)
     plt.close(fig)
     return written
+
+
+def sections(folders: list, labels: list[str], out: Path, hole: int = 4, half_width: float = 120.0) -> Path:
+    """One measured hole's section per run, stacked: the grains of a slab 1.5 grain radii either side of the hole's
+    centre line, across ± `half_width` mm of travel, coloured by the depth they started at, with the hole's
+    effective depth from the surface (L2_surface, dashed) and its deepest probed point (bottom, red). Where soil
+    carried down from the surface or a plug pushed ahead of the punch ends up, and how far the hole kept its depth."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from analysis.holes.measure import load_run
+    fig, axes = plt.subplots(len(folders), 1, figsize=(8, 2.6 * len(folders) + 0.6), squeeze=False)
+    sc = None
+    for ax, folder, label in zip(axes[:, 0], folders, labels):
+        cfg, _, state = load_run(Path(folder))
+        holes = pd.read_csv(Path(folder) / "holes.csv", comment="#")
+        h = holes[(holes.hole == hole) & holes.found]
+        h = h if len(h) else holes[holes.found].iloc[:1]
+        pos, rad, z0 = state["pos"] * 1000, state["radius"] * 1000, float(state["z_surface"]) * 1000
+        start = state["initial_pos"][:, 2] * 1000 - z0
+        x0, W = float(h.x.iloc[0]), cfg["bed_size_mm"][1]
+        slab = (np.abs(pos[:, 1] - W / 2) < 1.5 * rad.mean()) & (np.abs(pos[:, 0] - x0) < half_width)
+        sc = ax.scatter(pos[slab, 0] - x0, pos[slab, 2] - z0, s=(rad[slab] * 0.9) ** 2, c=start[slab],
+                        cmap="viridis", vmin=-cfg["preset"]["depth"], vmax=0)
+        ax.axhline(-float(h.L2_surface.iloc[0]), color="k", ls="--", lw=0.8, label="L2 from the surface")
+        ax.axhline(-float(h.bottom.iloc[0]), color="r", lw=0.8, label="bottom")
+        ax.axhline(-cfg["disk"]["penetration"], color="r", ls=":", lw=0.8, label="tip depth P")
+        ax.set_xlim(-half_width, half_width)
+        ax.set_ylim(-cfg["preset"]["depth"], 30)
+        ax.set_aspect("equal")
+        ax.set_ylabel("z - surface, mm")
+        ax.set_title(f"{label}: hole {int(h.hole.iloc[0])}", fontsize=9)
+    axes[0, 0].legend(loc="lower right", fontsize=7)
+    axes[-1, 0].set_xlabel("x from the hole's centre, mm")
+    fig.colorbar(sc, ax=axes[:, 0], label="the grain's starting depth, mm")
+    out = Path(out)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out
