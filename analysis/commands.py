@@ -154,9 +154,13 @@ def cmd_calibrate_bench(args) -> int:
     except ConfigError as e:
         print(f"calibrate: {e}", file=sys.stderr)
         return 2
-    if args.cones:
+    if args.size_check and args.cones:
+        print("calibrate: --size-check with --cones: allowed one of them", file=sys.stderr)
+        return 2
+    if args.cones or args.size_check:           # a check of the calibration, no calibration
         try:
-            table = bench.cones(args.soil, args.cones, cfg, workers=args.workers)
+            table = (bench.cones(args.soil, args.cones, cfg, workers=args.workers) if args.cones
+                     else bench.size_check(args.soil, cfg).round(2))
         except ConfigError as e:
             print(f"calibrate: {e}", file=sys.stderr)
             return 2
@@ -164,20 +168,6 @@ def cmd_calibrate_bench(args) -> int:
             print(f"calibrate {args.soil}: {e}", file=sys.stderr)
             return 1
         print(table.to_string(index=False))
-        return 0
-    if args.size_check and args.cones:
-        print("calibrate: --size-check with --cones: allowed one of them", file=sys.stderr)
-        return 2
-    if args.size_check:
-        try:
-            verdict = bench.size_check(args.soil, cfg)
-        except ConfigError as e:
-            print(f"calibrate: {e}", file=sys.stderr)
-            return 2
-        except RuntimeError as e:
-            print(f"calibrate {args.soil}: {e}", file=sys.stderr)
-            return 1
-        print(verdict.round(2).to_string(index=False))
         return 0
     try:
         post = bench.calibrate(args.soil, cfg)

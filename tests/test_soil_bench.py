@@ -343,3 +343,9 @@ def test_the_size_check_asks_for_the_bench(capsys):
     from analysis.cli import main
     assert main(["calibrate", "--soil", "clay", "--size-check"]) == 2
     assert "--size-check: allowed only with --bench" in capsys.readouterr().err
+
+
+def test_the_size_check_and_the_cones_are_one_at_a_time(capsys):
+    from analysis.cli import main
+    assert main(["calibrate", "--soil", "clay", "--bench", "--size-check", "--cones", "s1-0000000000"]) == 2
+    assert "allowed one of them" in capsys.readouterr().err
