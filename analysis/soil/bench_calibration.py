@@ -170,14 +170,16 @@ def _shear_peaks(folder: Path) -> list[float]:
     return []
 
 
-def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out_dir: Path = BENCH_DIR) -> list[dict]:
-    """Every (seed, parameters) evaluation, `cfg["workers"]` at a time, with progress and an ETA."""
+def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out_dir: Path = BENCH_DIR,
+                 cfgs: list[dict] | None = None) -> list[dict]:
+    """Every (seed, parameters) evaluation, `cfg["workers"]` at a time, with progress and an ETA; `cfgs`: each
+    evaluation's own bench settings in place of cfg (the size check's two boxes)."""
     rows: list = [None] * len(seeds_params)
     wall0 = time.time()
 
     def one(i):
         seed, params = seeds_params[i]
-        rows[i] = evaluate(soil, seed, params, cfg, out_dir)
+        rows[i] = evaluate(soil, seed, params, cfgs[i] if cfgs else cfg, out_dir)
         done = sum(r is not None for r in rows)
         elapsed = time.time() - wall0
         say(f"calibrate {soil}: {done}/{len(seeds_params)} evaluations done, {elapsed:.0f} s, "
@@ -286,15 +288,9 @@ def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) ->
     seeds = [int(s) for s in cfg["check_seeds"]]
     boxes = {"configured": cfg, "grown": {**cfg, "size_mm": list(cfg["size_check_mm"])}}
     jobs = [(name, box, s) for name, box in boxes.items() for s in seeds]
-    rows: list = [None] * len(jobs)
-
-    def one(i):
-        name, box, seed = jobs[i]
-        rows[i] = {"box": name, "size_mm": "x".join(f"{v:g}" for v in box["size_mm"]),
-                   **evaluate(soil, seed, params, box, out_dir)}
-    with ThreadPoolExecutor(max_workers=int(cfg["workers"])) as pool:
-        list(pool.map(one, range(len(jobs))))
-    table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
+    rows = evaluate_all(soil, [(s, params) for _, _, s in jobs], cfg, out_dir, cfgs=[box for _, box, _ in jobs])
+    table = pd.DataFrame([{"box": name, "size_mm": "x".join(f"{v:g}" for v in box["size_mm"]), **row}
+                          for (name, box, _), row in zip(jobs, rows)]).drop(columns=["tau_peak_kpa"], errors="ignore")
     atomic_csv(table, Path(out_dir) / f"{soil}-size.csv",
                f"./holes calibrate --soil {soil} --bench --size-check; {soil}'s posterior mean on packings "
                f"{','.join(map(str, seeds))} in the configured box and one grown by half")
