@@ -198,3 +198,14 @@ def test_the_sections_show_the_first_packings_points_deepest_first_and_skip_runs
     assert drawn == [["P 95 mm, spring 4 N/mm, packing 1", "P 80 mm, spring 1 N/mm, packing 1"]]
     assert path.exists() and path.stat().st_size > 10_000
     assert machine.draw_sections([(case(80, 1, 1), runs["no_grains"])], tmp_path / "none.png") is None
+
+
+def test_adopt_writes_the_fit_where_the_presets_read_it(monkeypatch):
+    """--adopt sends a fit made in another --out folder to configs/machine.toml; without it that folder keeps it."""
+    from analysis.core.config import MACHINE
+    seen = []
+    monkeypatch.setattr(machine, "run", lambda *a, machine_path=None, **k: seen.append(machine_path) or 0)
+    for extra in (["--adopt"], []):
+        assert cli.main(["calibrate-machine", "configs/studies/machine_clay_r6.toml", "--out", "results/x",
+                         "--no-run", *extra]) == 0
+    assert seen == [ROOT / MACHINE, None]

@@ -228,7 +228,8 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
             found.append((c, kept / c.id))
         else:
             say(f"calibrate-machine: {c.id} ({c.label()}) has no finished run; left out")
-    command = f"./holes calibrate-machine {shown(design)}"
+    command = f"./holes calibrate-machine {shown(design)}" + ("" if out == ROOT / "results/calibration" else
+                                                             f" --out {shown(out)}")
     if not tables:
         say("calibrate-machine: no case has finished; nothing written")
         return 1
