@@ -159,8 +159,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run preset of configs/presets.toml (default validation_medium: the machine calibrated on "
                    "clay, 8 holes per soil, r = 6 mm grains; validation_surface is the same at r = 5 mm)")
     p.add_argument("--soils", default="clay,loam,sand")
-    p.add_argument("--seeds", type=option("--seeds", SEED, many=True), default=[1],
-                   help="packing seeds, one run each, e.g. 1,2,3")
+    p.add_argument("--seeds", type=option("--seeds", SEED, many=True),
+                   help="packing seeds, one run each, e.g. 1,2,3 (default: the preset's, 1 for most; validation: 1,2,3)")
     p.add_argument("--scheduler", type=scheduler_address, help="Dask distributed scheduler address (tcp://host:8786): "
                    "the runs go to its workers, as a study's cases do; default: local")
     scene_batch_options(p, "where comparison.csv/.md and comparison/ go (default results)")
@@ -175,8 +175,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "validation_medium, the main job's)")
     p.add_argument("--machine-dir", type=folder("--machine-dir"), default=None,
                    help="the machine calibration whose intervals and design slopes are propagated: its machine_fit.csv "
-                   "and machine.csv (default results/calibration, the fit configs/machine.toml holds; "
-                   "results/calibration/machine_r6: the design at the main job's grains)")
+                   "and machine.csv (default: the folder of the fit configs/machine.toml holds for the preset's "
+                   "machine, its `fit`)")
     p.set_defaults(func=cmd_budget)
     p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
     p.add_argument("file", nargs="+", help="study file(s), e.g. configs/studies/slip.toml; several run as one batch")

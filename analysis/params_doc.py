@@ -94,7 +94,10 @@ def render() -> str:
            "Cross-checks: `outer_diameter` > D; h < `rest_from_tip` < L3; `rest_from_tip` + `travel` ≤ L3.", "",
            *table(SLEEVE_FIELDS, {"value": disk["sleeve"]}, disk.get("sleeve_source", {})), "",
            "## `presets.toml`: run presets (`--preset NAME`)", "",
-           *table({**PRESET_FIELDS, **PRESET_OPTIONAL}, presets), "",
+           *table({**PRESET_FIELDS, **PRESET_OPTIONAL}, {n: v for n, v in presets.items() if "replicates" not in v}), "",
+           *[f"`{n}` replicates `{v['replicates']}` over packings {', '.join(map(str, v['seeds']))}: that preset's runs "
+             "(the same ids), its own table in `results/comparison.csv`." for n, v in presets.items() if "replicates" in v],
+           "",
            "The main job's candidates (`studies/preset_candidates.toml`, judged in results/bench/README.md) are "
            "presets too: " + ", ".join(f"`{n}`" for n in read_toml(ROOT / "configs/studies/preset_candidates.toml"))
            + ".", "",

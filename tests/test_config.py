@@ -247,3 +247,27 @@ def test_a_resolution_by_its_grain_radius_is_the_same_resolution_and_the_same_ru
     assert plan("clay", "quick", resolution="r6")["id"] == plan("clay", "quick", resolution="medium")["id"]
     with pytest.raises(ConfigError, match=r"allowed r3, r4, r5, r6, r8 \(grain radius in mm\) or quick"):
         load_resolution("r7")
+
+
+def test_the_validation_replicates_the_main_jobs_runs_over_three_packings():
+    """The validation preset is the main job's strip over packings 1-3: the same run ids, so packing 1 is the main
+    job's run itself and never runs twice."""
+    from analysis.core.config import replicated
+    from analysis.core.run_spec import plan
+    assert replicated("validation") == ("validation_medium", [1, 2, 3])
+    assert replicated("validation_medium") == ("validation_medium", [1])
+    for seed in (1, 2):
+        assert plan("clay", "validation", seed=seed)["id"] == plan("clay", "validation_medium", seed=seed)["id"]
+
+
+@pytest.mark.parametrize("body, field", [('replicates = "quick"\nseeds = [1]', "seeds"),
+                                         ('replicates = "quick"\nseeds = [1, 1]', "seeds"),
+                                         ('replicates = "quick"\nseeds = [0, 2]', "seeds"),
+                                         ('replicates = "nothing"\nseeds = [1, 2]', "replicates"),
+                                         ('replicates = "quick"\nseeds = [1, 2]\nholes = 3', "holes")])
+def test_a_bad_replicating_preset_is_refused_naming_its_field(tmp_path, body, field):
+    from analysis.core.config import load_preset
+    path = tmp_path / "presets.toml"
+    path.write_text((ROOT / "configs/presets.toml").read_text() + f"\n[again]\n{body}\n")
+    with pytest.raises(ConfigError, match=rf"again\.{field}"):
+        load_preset("again", path)

@@ -84,6 +84,7 @@ def test_the_fitted_values_are_written_where_a_preset_reads_them(tmp_path):
         assert m["tool"]["sleeve.stiffness"] == pytest.approx(r.stiffness, abs=0.005)
         assert m["tool"]["sleeve.rest_from_tip"] == 22.0 and m["status"] == r.status
         assert m["source"].startswith("calibrated on clay, seed 001 Table 3")
+        assert m["fit"] == "results/calibration/machine_fit.csv"        # where the budget finds the fit's design
     undetermined = machine.fit(synthetic_rows([(80, 0.5), (80, 2.5)]), want)
     assert machine.write_machine(undetermined, cases, tmp_path / "none.toml", "test", want) == []
     assert not (tmp_path / "none.toml").exists()

@@ -246,8 +246,8 @@ def test_a_sensitivity_sets_each_case_beside_the_comparisons_holes_of_its_soil(t
 
 def test_a_sensitivity_against_an_unknown_preset_names_it(tmp_path):
     path = study_file(tmp_path, "s", {"seed": [1]})
-    path.write_text(path.read_text().replace('name = "s"', 'name = "s"\nagainst = "validation"'))
-    with pytest.raises(ConfigError, match="validation"):
+    path.write_text(path.read_text().replace('name = "s"', 'name = "s"\nagainst = "validation_fine"'))
+    with pytest.raises(ConfigError, match="validation_fine"):
         load_study(path)
 
 

@@ -24,7 +24,7 @@ import pandas as pd
 from analysis.holes import compare, compare_report, measure, rings
 from analysis.core.io import say
 from analysis.core.runner import finished, plan_case, run_all, scene_args
-from analysis.core.config import load_preset
+from analysis.core.config import load_preset, replicated
 from analysis.core.seedling import load_criteria
 from analysis.core.schema import ROOT, ConfigError
 from analysis.batch.machine import TARGET_METRICS, load_of
@@ -32,24 +32,29 @@ from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 
 KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # a run's files kept beside the table
 KEPT_IF_THERE = ("load.json",)      # the calibrated machine's load W (analysis/batch/machine.py load_of)
-MD_ORDER = ("validation_medium", "validation_surface", "quick", "graded", "paper")   # results/comparison.md: the main job first
+# results/comparison.md: the main job first, then its validation over three packings
+MD_ORDER = ("validation_medium", "validation", "validation_surface", "quick", "graded", "paper")
 
 
-def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = None, parallel: int | None = None,
+def run(preset: str, soils: list[str], seeds: list[int] | None = None, threads: int | None = None, parallel: int | None = None,
         runs_dir: Path | None = None, bed_dir: Path | None = None, out: Path | None = None,
         no_run: bool = False, kept_runs: bool = False, scheduler: str | None = None) -> int:
     """Run what is missing (unless `no_run`: then only the finished runs are measured; with `kept_runs`, runs
-    kept beside the table are not missing; on a Dask cluster's workers with `scheduler`), measure, compare."""
+    kept beside the table are not missing; on a Dask cluster's workers with `scheduler`), measure, compare.
+    A preset that replicates another (configs/presets.toml `replicates`) runs that one's runs, over its own seeds
+    unless `seeds` are given, and its table is kept under its own name."""
     from analysis.core.bed_spec import BED_DIR
     runs_dir = Path(runs_dir or ROOT / "results/runs")
     bed_dir = Path(bed_dir or BED_DIR)
     out = Path(out or ROOT / "results")
+    runs_preset, preset_seeds = replicated(preset)
+    seeds = preset_seeds if seeds is None else seeds
     for name, values in (("--soils", soils), ("--seeds", seeds)):
         twice = sorted({str(v) for v in values if list(values).count(v) > 1})
         if twice:
             raise ConfigError(f"{name} names {', '.join(twice)} more than once: allowed each once (one run's holes "
                               "would be counted twice and the interval narrowed)")
-    fields = [{"soil": soil, "preset": preset, "seed": seed} for soil in soils for seed in seeds]
+    fields = [{"soil": soil, "preset": runs_preset, "seed": seed} for soil in soils for seed in seeds]
     cases = [plan_case(f) for f in fields]              # every input checked before any scene, no YADE
     criteria = load_criteria()
     machine = load_preset(preset).machine          # a calibrated machine: its targets on clay are not predictions
@@ -58,7 +63,8 @@ def run(preset: str, soils: list[str], seeds: list[int], threads: int | None = N
                  and (kept / c["id"] / "holes.csv").exists()}
     batch = [{"id": c["id"], "tag": f"[{f['soil']} seed {f['seed']}]", "args": scene_args(f),
               "asleep": bool(c.get("awake_mm"))}
-             for f, c in zip(fields, cases) if c["id"] not in elsewhere]
+             for f, c in sorted(zip(fields, cases), key=lambda fc: seeds.index(fc[0]["seed"]))   # a packing at a time
+             if c["id"] not in elsewhere]
     if no_run:
         failures = []
         for b in batch:

@@ -293,7 +293,7 @@ def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want:
         values = {**tool, P_KEY: round(float(r.P), 1), K_KEY: round(float(r.stiffness), 2)}
         lines += [f"[{r.variant}]", f'meaning = "{r.meaning}"', f'status = "{r.status}"',
                   f'source = "calibrated on clay, seed 001 Table 3 (L2 {want["surface"]:g}, h1 {want["h1"]:g} mm): '
-                  f'{shown(fit_path)}, {r.runs} runs, {r.holes} holes"',
+                  f'{shown(fit_path)}, {r.runs} runs, {r.holes} holes"', f'fit = "{shown(fit_path)}"',
                   f"P_interval_mm = [{r.P_lo:.1f}, {r.P_hi:.1f}]",
                   f"stiffness_interval_n_per_mm = [{r.stiffness_lo:.2f}, {r.stiffness_hi:.2f}]",
                   f"[{r.variant}.tool]", *(f'"{k}" = {v:g}' for k, v in values.items()), ""]

@@ -237,6 +237,8 @@ def load_preset(name: str, path=None) -> Preset:
         shown = ", ".join(data)
         raise ConfigError(f"preset = {name!r}: allowed {shown} (or a candidate of {CANDIDATES.relative_to(ROOT)})")
     table = dict(data[name])
+    if "replicates" in table:                # another preset's runs over several packings: that preset, same ids
+        return load_preset(replicated(name, path)[0], path)
     extra = {k: table.pop(k) for k in PRESET_OPTIONAL if k in table}
     v = check_table(f"{path}: {name}", table, PRESET_FIELDS)
     load_resolution(v["resolution"])
@@ -253,6 +255,29 @@ def load_preset(name: str, path=None) -> Preset:
             raise ConfigError(f"{path}: {name}.soils = {soils!r}: allowed {' | '.join(SOIL_SOURCES)}")
         v["soils"] = "" if soils == "table" else soils
     return Preset(name, **v)
+
+
+def replicated(name: str, path=None) -> tuple[str, list[int]]:
+    """A preset's runs and packing seeds: (`replicates`, `seeds`) for a preset that replicates another over several
+    packings (its runs are the other's, shared run for run), else (`name`, [1])."""
+    path = preset_names().get(name, PRESETS) if path is None else path
+    table = dict(read_toml(path).get(name, {}))
+    if "replicates" not in table:
+        return name, [1]
+    where = f"{path}: {name}"
+    unknown = sorted(set(table) - {"replicates", "seeds"})
+    if unknown:
+        raise ConfigError(f"{where}.{unknown[0]}: not allowed beside replicates (allowed: replicates, seeds)")
+    runs = table["replicates"]
+    target = read_toml(path).get(runs) if isinstance(runs, str) else None
+    if target is None or "replicates" in target:
+        raise ConfigError(f"{where}.replicates = {runs!r}: allowed a preset of the same file that replicates none")
+    seeds = table.get("seeds")
+    if (not isinstance(seeds, list) or len(seeds) < 2 or len(set(seeds)) != len(seeds)
+            or not all(isinstance(x, int) and not isinstance(x, bool) and 1 <= x <= 1000 for x in seeds)):
+        raise ConfigError(f"{where}.seeds = {seeds!r}: allowed two or more distinct packing seeds, each an integer "
+                          "in [1, 1000]")
+    return runs, seeds
 
 
 MACHINE = "configs/machine.toml"

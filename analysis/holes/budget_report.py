@@ -97,14 +97,16 @@ def table(comparison: pd.DataFrame, holes: pd.DataFrame, grain: pd.DataFrame, ra
 def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Path = ROOT / "results/comparison.csv",
         machine_dir: Path | None = None) -> list[Path]:
     """results/validation/error_budget.csv and error_budget.png for `preset`'s rows of the comparison, the machine's
-    part from the calibration in `machine_dir` (default results/calibration)."""
+    part from the calibration in `machine_dir` (default: the folder of the fit configs/machine.toml holds, else
+    results/calibration)."""
+    from analysis.core.config import load_machine, load_preset, load_resolution
+    p = load_preset(preset)
     chosen = machine_dir is not None
-    machine_dir = Path(machine_dir or ROOT / "results/calibration")
+    fitted = load_machine(p.machine).get("fit") if getattr(p, "machine", None) else None   # where its values came from
+    machine_dir = Path(machine_dir or (ROOT / Path(fitted).parent if fitted else ROOT / "results/calibration"))
     if chosen and not (machine_dir / "machine_fit.csv").exists():
         raise ConfigError(f"--machine-dir {shown(machine_dir)}: no machine_fit.csv there; allowed a folder "
                           "`./holes calibrate-machine --out` wrote")
-    from analysis.core.config import load_preset, load_resolution
-    p = load_preset(preset)
     comparison = read_table(comparison_path)
     comparison = comparison[comparison.preset == preset]
     if comparison.empty:
