@@ -160,7 +160,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "clay, 8 holes per soil, r = 6 mm grains; validation_surface is the same at r = 5 mm)")
     p.add_argument("--soils", default="clay,loam,sand")
     p.add_argument("--seeds", type=option("--seeds", SEED, many=True),
-                   help="packing seeds, one run each, e.g. 1,2,3 (default: the preset's, 1 for most; validation: 1,2,3)")
+                   help="packing seeds, one run each, e.g. 1,2,3 (default: the preset's `seeds`, else 1)")
     p.add_argument("--scheduler", type=scheduler_address, help="Dask distributed scheduler address (tcp://host:8786): "
                    "the runs go to its workers, as a study's cases do; default: local")
     scene_batch_options(p, "where comparison.csv/.md and comparison/ go (default results)")

@@ -7,7 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from analysis.core.config import load_disk
+from analysis.core.config import MACHINE, load_disk
 from analysis.core.schema import ROOT, ConfigError
 from analysis.core.bed_spec import BED_DIR
 from analysis.core.io import shown
@@ -184,7 +184,6 @@ def cmd_calibrate_bench(args) -> int:
 def cmd_calibrate_machine(args) -> int:
     from analysis.batch import machine
     try:
-        from analysis.core.config import MACHINE
         return machine.run(args.design, args.workers, args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run,
                            machine_path=ROOT / MACHINE if args.adopt else None)
     except ConfigError as e:

@@ -228,8 +228,10 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
             found.append((c, kept / c.id))
         else:
             say(f"calibrate-machine: {c.id} ({c.label()}) has no finished run; left out")
-    command = f"./holes calibrate-machine {shown(design)}" + ("" if out == ROOT / "results/calibration" else
-                                                             f" --out {shown(out)}")
+    default_out = out == ROOT / "results/calibration"
+    machine_path = Path(machine_path) if machine_path else (ROOT / MACHINE if default_out else out / "machine.toml")
+    command = (f"./holes calibrate-machine {shown(design)}" + ("" if default_out else f" --out {shown(out)}")
+               + (" --adopt" if machine_path == ROOT / MACHINE and not default_out else ""))
     if not tables:
         say("calibrate-machine: no case has finished; nothing written")
         return 1
@@ -239,8 +241,6 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
     draw_sections(found, out / "sections.png")
     atomic_csv(table.round(3), out / "machine_fit.csv",
                stamp(command) + f"; fitted on clay's field means only (L2 {want['surface']:g}, h1 {want['h1']:g} mm)")
-    machine_path = Path(machine_path) if machine_path else (ROOT / MACHINE if out == ROOT / "results/calibration"
-                                                            else out / "machine.toml")
     written = write_machine(table, cases, machine_path, stamp(command), want, out / "machine_fit.csv")
     if written:
         say(f"calibrate-machine: {', '.join(written)} written to {machine_path}")

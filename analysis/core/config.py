@@ -261,7 +261,8 @@ def replicated(name: str, path=None) -> tuple[str, list[int]]:
     """A preset's runs and packing seeds: (`replicates`, `seeds`) for a preset that replicates another over several
     packings (its runs are the other's, shared run for run), else (`name`, [1])."""
     path = preset_names().get(name, PRESETS) if path is None else path
-    table = dict(read_toml(path).get(name, {}))
+    data = read_toml(path)
+    table = dict(data.get(name, {}))
     if "replicates" not in table:
         return name, [1]
     where = f"{path}: {name}"
@@ -269,7 +270,7 @@ def replicated(name: str, path=None) -> tuple[str, list[int]]:
     if unknown:
         raise ConfigError(f"{where}.{unknown[0]}: not allowed beside replicates (allowed: replicates, seeds)")
     runs = table["replicates"]
-    target = read_toml(path).get(runs) if isinstance(runs, str) else None
+    target = data.get(runs) if isinstance(runs, str) else None
     if target is None or "replicates" in target:
         raise ConfigError(f"{where}.replicates = {runs!r}: allowed a preset of the same file that replicates none")
     seeds = table.get("seeds")
