@@ -151,8 +151,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a study file over disk.penetration and sleeve.stiffness, clay only")
     scene_batch_options(p, "folder of machine.csv and the kept runs (default results/calibration)")
     p.add_argument("--no-run", action="store_true", help="measure and fit the finished or kept runs; run nothing")
-    p.add_argument("--adopt", action="store_true", help="write the fit to configs/machine.toml, where the presets read "
-                   "it, also when --out is another folder (by default only the default --out writes there)")
+    p.add_argument("--adopt", nargs="?", const="literal,surface", metavar="VARIANTS",
+                   help="write the fit to configs/machine.toml, where the presets read it, also when --out is another "
+                   "folder (by default only the default --out writes there); with VARIANTS (literal, surface or both, "
+                   "comma-separated) only those sections, the others kept as they are")
     p.set_defaults(func=cmd_calibrate_machine)
     p = sub.add_parser("compare", help="the main job: run, measure and set the holes beside the field's Table 3")
     p.add_argument("--preset", default="validation_medium",

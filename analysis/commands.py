@@ -184,8 +184,9 @@ def cmd_calibrate_bench(args) -> int:
 def cmd_calibrate_machine(args) -> int:
     from analysis.batch import machine
     try:
+        variants = machine.adopted_variants(args.adopt)
         return machine.run(args.design, args.workers, args.threads, args.runs_dir, args.bed_dir, args.out, args.no_run,
-                           machine_path=ROOT / MACHINE if args.adopt else None)
+                           machine_path=ROOT / MACHINE if args.adopt else None, variants=variants)
     except ConfigError as e:
         print(f"calibrate-machine: {e}", file=sys.stderr)
         return 2

@@ -90,6 +90,30 @@ def test_the_fitted_values_are_written_where_a_preset_reads_them(tmp_path):
     assert not (tmp_path / "none.toml").exists()
 
 
+def test_adopting_one_variant_rewrites_its_section_and_keeps_the_others(tmp_path):
+    """`--adopt literal` writes the literal section from this fit and leaves the surface section (another design's
+    fit) as it was; each section names the command that made it; an unknown variant is refused."""
+    from analysis.core.config import load_machine
+    from analysis.batch.study import load_study
+    _, cases = load_study(ROOT / "configs/studies/machine_clay.toml")
+    want = {"literal": 75.6, "surface": 62.1, "h1": 13.5}
+    path = tmp_path / "machine.toml"
+    first = machine.fit(synthetic_rows([(80, 0.5), (80, 2.5), (95, 0.5), (95, 2.5)]), want, n_boot=100)
+    assert machine.write_machine(first, cases, path, "made by `first`", want) == ["literal", "surface"]
+    surface = load_machine("surface", path)
+    deeper = {**want, "literal": 78.0}
+    second = machine.fit(synthetic_rows([(80, 0.5), (80, 2.5), (95, 0.5), (95, 2.5)]), deeper, n_boot=100)
+    only = second[second.variant.isin(machine.adopted_variants("literal"))]
+    assert machine.write_machine(only, cases, path, "made by `second`", deeper) == ["literal"]
+    assert load_machine("surface", path) == surface and surface["made_by"] == "`first`"
+    literal = load_machine("literal", path)
+    assert literal["made_by"] == "`second`"
+    assert literal["tool"]["disk.penetration"] == pytest.approx(second.set_index("variant").P["literal"], abs=0.05)
+    assert second.set_index("variant").P["literal"] > first.set_index("variant").P["literal"] + 1   # a deeper target
+    with pytest.raises(ConfigError, match="'deep' is not a variant"):
+        machine.adopted_variants("literal,deep")
+
+
 def test_a_calibrated_preset_runs_the_calibrated_machine_and_the_others_keep_their_ids():
     import json
     from analysis.core.config import load_machine
@@ -201,12 +225,17 @@ def test_the_sections_show_the_first_packings_points_deepest_first_and_skip_runs
     assert machine.draw_sections([(case(80, 1, 1), runs["no_grains"])], tmp_path / "none.png") is None
 
 
-def test_adopt_writes_the_fit_where_the_presets_read_it(monkeypatch):
-    """--adopt sends a fit made in another --out folder to configs/machine.toml; without it that folder keeps it."""
+def test_adopt_writes_the_fit_where_the_presets_read_it(monkeypatch, capsys):
+    """--adopt sends a fit made in another --out folder to configs/machine.toml (every variant, or those it names);
+    without it that folder keeps it; a variant that does not exist is refused before anything runs."""
     from analysis.core.config import MACHINE
     seen = []
-    monkeypatch.setattr(machine, "run", lambda *a, machine_path=None, **k: seen.append(machine_path) or 0)
-    for extra in (["--adopt"], []):
+    monkeypatch.setattr(machine, "run", lambda *a, machine_path=None, variants=None, **k:
+                        seen.append((machine_path, variants)) or 0)
+    for extra in (["--adopt"], ["--adopt", "literal"], []):
         assert cli.main(["calibrate-machine", "configs/studies/machine_clay_r6.toml", "--out", "results/x",
                          "--no-run", *extra]) == 0
-    assert seen == [ROOT / MACHINE, None]
+    assert seen == [(ROOT / MACHINE, ("literal", "surface")), (ROOT / MACHINE, ("literal",)),
+                    (None, ("literal", "surface"))]
+    assert cli.main(["calibrate-machine", "configs/studies/machine_clay_r6.toml", "--no-run", "--adopt", "deep"]) == 2
+    assert "'deep' is not a variant" in capsys.readouterr().err and len(seen) == 3

@@ -4,6 +4,7 @@ filter's posterior and the packings' check are written, and (scene tier) the she
 answer the contact parameters the way a granular soil does."""
 import json
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -349,3 +350,22 @@ def test_the_size_check_and_the_cones_are_one_at_a_time(capsys):
     from analysis.cli import main
     assert main(["calibrate", "--soil", "clay", "--bench", "--size-check", "--cones", "s1-0000000000"]) == 2
     assert "allowed one of them" in capsys.readouterr().err
+
+
+def test_a_soils_own_bench_settings_replace_the_common_ones_and_bad_ones_are_refused(tmp_path):
+    """[soil_bench.<soil>] replaces [bench] keys for that soil only; an unknown soil, a key [bench] lacks or fewer
+    than three distinct positive normal stresses is refused naming the field."""
+    common, sand = bench.load_config(), bench.load_config(soil="sand")
+    assert len(sand["stresses_kpa"]) > len(common["stresses_kpa"]) >= 3
+    assert bench.load_config(soil="clay")["stresses_kpa"] == common["stresses_kpa"]
+    params = {"normal_cohesion": 5e4, "friction_deg": 20.0, "new_contact_cohesion": 0.01, "rolling_friction": 0.05}
+    assert bench.evaluation_id("sand", 1, params, sand) != bench.evaluation_id("sand", 1, params, common)
+    text = bench.CONFIG.read_text()
+    for extra, match in [("[soil_bench.peat]\nstresses_kpa = [25, 50, 100]", "soil_bench.peat"),
+                         ("[soil_bench.sand]\ncolour = 1", "soil_bench.sand.colour"),
+                         ("[soil_bench.sand]\nstresses_kpa = [50, 100]", "stresses_kpa"),
+                         ("[soil_bench.sand]\nstresses_kpa = [0, 50, 100]", "stresses_kpa"),
+                         ("[soil_bench.sand]\nstresses_kpa = [50, 50, 100]", "stresses_kpa")]:
+        (tmp_path / "b.toml").write_text(text[:text.index("[soil_bench")] + extra + "\n")
+        with pytest.raises(ConfigError, match=re.escape(match)):
+            bench.load_config(tmp_path / "b.toml", soil="sand")

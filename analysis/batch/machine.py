@@ -195,11 +195,24 @@ def fit(rows: pd.DataFrame, want: dict, n_boot: int = 2000, seed: int = 0) -> pd
     return pd.DataFrame(out)
 
 
+def adopted_variants(text: str | None) -> tuple:
+    """`--adopt`'s variants: None or "" for every one, else a comma-separated list of VARIANTS' names, checked.
+
+    >>> adopted_variants("literal"), adopted_variants(None)
+    (('literal',), ('literal', 'surface'))
+    """
+    names = tuple(dict.fromkeys(v.strip() for v in (text or "").split(",") if v.strip())) or tuple(VARIANTS)
+    unknown = [v for v in names if v not in VARIANTS]
+    if unknown:
+        raise ConfigError(f"--adopt {text}: {unknown[0]!r} is not a variant; allowed {', '.join(VARIANTS)}")
+    return names
+
+
 def run(design=DESIGN, workers: int | None = None, threads: int | None = None, runs_dir=None, bed_dir=None, out=None,
-        no_run: bool = False, scheduler: str | None = None, machine_path=None) -> int:
+        no_run: bool = False, scheduler: str | None = None, machine_path=None, variants: tuple = tuple(VARIANTS)) -> int:
     """Run the design's missing cases (unless `no_run`), measure and keep every finished one, write
-    machine.csv (every hole) and machine_fit.csv (both variants), and each fitted variant's values to
-    configs/machine.toml (`machine_path`), where a preset's `machine` key reads them."""
+    machine.csv (every hole) and machine_fit.csv (both variants), and the fitted values of `variants` to
+    configs/machine.toml (`machine_path`), where a preset's `machine` key reads them; its other sections stay."""
     from analysis.core.bed_spec import BED_DIR
     from analysis.core.runner import scene_args
     from analysis.holes.compare import field_table
@@ -230,8 +243,9 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
             say(f"calibrate-machine: {c.id} ({c.label()}) has no finished run; left out")
     default_out = out == ROOT / "results/calibration"
     machine_path = Path(machine_path) if machine_path else (ROOT / MACHINE if default_out else out / "machine.toml")
+    adopt = "" if set(variants) == set(VARIANTS) else " " + ",".join(variants)
     command = (f"./holes calibrate-machine {shown(design)}" + ("" if default_out else f" --out {shown(out)}")
-               + (" --adopt" if machine_path == ROOT / MACHINE and not default_out else ""))
+               + (f" --adopt{adopt}" if machine_path == ROOT / MACHINE and not default_out else ""))
     if not tables:
         say("calibrate-machine: no case has finished; nothing written")
         return 1
@@ -241,7 +255,8 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
     draw_sections(found, out / "sections.png")
     atomic_csv(table.round(3), out / "machine_fit.csv",
                stamp(command) + f"; fitted on clay's field means only (L2 {want['surface']:g}, h1 {want['h1']:g} mm)")
-    written = write_machine(table, cases, machine_path, stamp(command), want, out / "machine_fit.csv")
+    written = write_machine(table[table.variant.isin(variants)], cases, machine_path, stamp(command), want,
+                            out / "machine_fit.csv")
     if written:
         say(f"calibrate-machine: {', '.join(written)} written to {machine_path}")
         if machine_path == ROOT / MACHINE:              # the parameter page shows the configs' values
@@ -271,33 +286,54 @@ def draw_sections(found: list, path: Path) -> Path | None:
     return sections([f for _, f in points], labels, path)
 
 
+def sections_of(text: str) -> dict:
+    """A machine file's text split into its variants' sections ({name: text}, each with its sub-tables), in order.
+
+    >>> list(sections_of("# head\\n[a]\\nx = 1\\n[a.tool]\\ny = 2\\n\\n[b]\\nz = 3\\n"))
+    ['a', 'b']
+    """
+    out, name = {}, None
+    for line in text.splitlines():
+        head = line.strip()
+        if head.startswith("[") and head.endswith("]") and "." not in head:
+            name = head[1:-1]
+            out[name] = []
+        if name is not None:
+            out[name].append(line)
+    return {k: "\n".join(v).strip() + "\n" for k, v in out.items()}
+
+
 def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want: dict,
                   fit_path: Path = ROOT / "results/calibration/machine_fit.csv") -> list[str]:
-    """Each variant with a fitted P and spring rate as a section of configs/machine.toml: the design's other
-    tool fields (the sleeve's rest, travel, preload: the same in every case) and the fitted two, rounded to
-    0.1 mm and 0.01 N/mm, with the fit's status, intervals and source. Returns the variants written."""
+    """Each variant of `table` with a fitted P and spring rate as a section of configs/machine.toml: the design's
+    other tool fields (the sleeve's rest, travel, preload: the same in every case) and the fitted two, rounded to
+    0.1 mm and 0.01 N/mm, with the fit's status, intervals, source and the command that made it (`made_by`); the
+    file's sections of other variants stay as they are. Returns the variants written."""
     tool = {}
     for key in cases[0].fields:
         if key.partition(".")[0] in ("disk", "sleeve") and key not in (P_KEY, K_KEY):
             values = {c.fields[key] for c in cases}
             if len(values) == 1:
                 tool[key] = float(values.pop())
-    lines = [f"# {note}", "# The machine's unknowns calibrated on clay (seed 001 Table 3, clay's means only), one section "
-             "per reading of §4.2's L2;", "# a preset's `machine` key names one. Written by the command above: "
-             "do not edit by hand.", ""]
+    head = ["# The machine's unknowns calibrated on clay (seed 001 Table 3, clay's means only), one section per "
+            "reading of §4.2's L2;", "# a preset's `machine` key names one. Written by `./holes calibrate-machine`, "
+            "each section by the command its made_by names: do not edit by hand.", ""]
+    sections = sections_of(path.read_text()) if path.exists() else {}
     written = []
     for r in table.itertuples():
         if not (math.isfinite(getattr(r, "P", math.nan)) and math.isfinite(getattr(r, "stiffness", math.nan))
                 and r.stiffness > 0):
             continue
         values = {**tool, P_KEY: round(float(r.P), 1), K_KEY: round(float(r.stiffness), 2)}
-        lines += [f"[{r.variant}]", f'meaning = "{r.meaning}"', f'status = "{r.status}"',
-                  f'source = "calibrated on clay, seed 001 Table 3 (L2 {want["surface"]:g}, h1 {want["h1"]:g} mm): '
-                  f'{shown(fit_path)}, {r.runs} runs, {r.holes} holes"', f'fit = "{shown(fit_path)}"',
-                  f"P_interval_mm = [{r.P_lo:.1f}, {r.P_hi:.1f}]",
-                  f"stiffness_interval_n_per_mm = [{r.stiffness_lo:.2f}, {r.stiffness_hi:.2f}]",
-                  f"[{r.variant}.tool]", *(f'"{k}" = {v:g}' for k, v in values.items()), ""]
+        lines = [f"[{r.variant}]", f'meaning = "{r.meaning}"', f'status = "{r.status}"',
+                 f'source = "calibrated on clay, seed 001 Table 3 (L2 {want["surface"]:g}, h1 {want["h1"]:g} mm): '
+                 f'{shown(fit_path)}, {r.runs} runs, {r.holes} holes"', f'fit = "{shown(fit_path)}"',
+                 f"P_interval_mm = [{r.P_lo:.1f}, {r.P_hi:.1f}]",
+                 f"stiffness_interval_n_per_mm = [{r.stiffness_lo:.2f}, {r.stiffness_hi:.2f}]",
+                 f"made_by = {json.dumps(note.removeprefix('made by '), ensure_ascii=False)}",
+                 f"[{r.variant}.tool]", *(f'"{k}" = {v:g}' for k, v in values.items())]
+        sections[r.variant] = "\n".join(lines) + "\n"
         written.append(r.variant)
     if written:
-        atomic_write(path, "\n".join(lines))
+        atomic_write(path, "\n".join(head) + "\n" + "\n".join(sections[k] for k in sorted(sections)))
     return written

@@ -37,18 +37,30 @@ SCENES_VERSION = 2     # raised whenever scripts/shear.py or scripts/collapse.py
 
 def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
     """The calibration's settings and its parameters' prior ranges, checked; with `soil`, the ranges its
-    `[soil_bounds.<soil>]` table narrows replace the common ones."""
+    `[soil_bounds.<soil>]` table narrows replace the common ones, and its `[soil_bench.<soil>]` settings the common
+    [bench] ones."""
     from analysis.core.soil_config import SOIL_FIELDS, SOILS
     cfg = tomllib.loads(Path(path).read_text())
-    bench, bounds, fixed = cfg.get("bench", {}), dict(cfg.get("bounds", {})), cfg.get("fixed", {})
-    per_soil = cfg.get("soil_bounds", {})
-    unknown = sorted(set(per_soil) - set(SOILS))
-    if unknown:
-        raise ConfigError(f"{path}: [soil_bounds.{unknown[0]}]: allowed soils {', '.join(SOILS)}")
+    bench, bounds, fixed = dict(cfg.get("bench", {})), dict(cfg.get("bounds", {})), cfg.get("fixed", {})
+    per_soil, bench_per_soil = cfg.get("soil_bounds", {}), cfg.get("soil_bench", {})
+    for table, rows in (("soil_bounds", per_soil), ("soil_bench", bench_per_soil)):
+        unknown = sorted(set(rows) - set(SOILS))
+        if unknown:
+            raise ConfigError(f"{path}: [{table}.{unknown[0]}]: allowed soils {', '.join(SOILS)}")
+    for name, own in bench_per_soil.items():       # a soil's own bench settings replace the common ones
+        stray = sorted(set(own) - set(bench))
+        if stray:
+            raise ConfigError(f"{path}: soil_bench.{name}.{stray[0]}: not in [bench]; allowed {', '.join(bench)}")
+    if soil is not None:
+        bench.update(bench_per_soil.get(soil, {}))
     need = {"resolution", "size_mm", "stresses_kpa", "speed_m_s", "calibration_seed", "check_seeds", "samples",
             "iterations", "workers"}
     if need - set(bench):
         raise ConfigError(f"{path}: [bench] lacks {', '.join(sorted(need - set(bench)))}")
+    stresses = bench["stresses_kpa"]
+    if len(stresses) < 3 or any(float(s) <= 0 for s in stresses) or len(set(stresses)) < len(stresses):
+        raise ConfigError(f"{path}: stresses_kpa = {stresses}: allowed three or more distinct normal stresses above "
+                          "0 kPa (c and φ with an interval)")
     for where, ranges in {"bounds": bounds, **{f"soil_bounds.{n}": own for n, own in per_soil.items()}}.items():
         stray = sorted(set(ranges) - set(bounds))          # a soil narrows the common parameters only
         if stray:
