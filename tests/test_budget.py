@@ -96,3 +96,43 @@ def test_a_machine_folder_without_a_fit_is_refused(tmp_path, capsys):
     assert cli.main(["budget", "--machine-dir", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "--machine-dir" in err and "machine_fit.csv" in err and "allowed" in err and "Traceback" not in err, err
+
+
+def test_the_bond_interval_covers_a_made_up_bond_through_packing_scatter():
+    """A made-up cone: 8 kPa of cone index per kPa of bond, 450 kPa at 50 kPa, packings scattered by 30 kPa; over
+    many made-up calibrations the bond's 95 % interval holds the true 50 kPa about 95 % of the time."""
+    from analysis.holes.budget import bond_interval
+    rng = np.random.default_rng(3)
+    cover = []
+    for _ in range(400):
+        bonds = np.array([40.0, 55.0, 48.0])
+        cones = 450 + 8 * (bonds - 50) + rng.normal(0, 30 / np.sqrt(3), 3)
+        r = bond_interval(bonds, cones, 48.0, 450 + 8 * (48 - 50) + rng.normal(0, 30, 5), 450.0)
+        cover.append(r["lo"] <= 50.0 <= r["hi"])
+    assert 0.88 <= np.mean(cover) <= 0.995, np.mean(cover)
+    one = bond_interval([40, 50], [370, 450], 50, [450.0], 450)
+    assert np.isnan(one["half_width"]) and one["centre"] == pytest.approx(50.0)
+
+
+def test_the_soil_part_is_the_bond_slope_times_its_half_width_on_made_up_strips():
+    """A strip with the bond 10 kPa lower whose h1 is 2 mm higher than the same packing's validation strip: the slope
+    is −0.2 mm/kPa and the soil part 0.2 × the bond's half-width; the budget table takes it as soil_parameters and no
+    longer names it not measured; another packing's holes do not enter."""
+    import pandas as pd
+    from analysis.holes import budget_report
+    bonds = pd.DataFrame([{"soil": "clay", "adopted": 48.0, "half_width": 7.5}])
+    holes = pd.DataFrame({"soil": "clay", "seed": [1] * 4 + [2] * 4, "run": ["a"] * 4 + ["b"] * 4, "found": True,
+                          **{m: 50.0 for m in budget_report.METRICS}})
+    holes["h1"] = [15.0, 16.0, 17.0, 16.0, 40.0, 41.0, 42.0, 43.0]              # packing 1: mean 16
+    case = {"soil": "clay", "seed": 1, "soil.normal_cohesion": 38000.0, "found": 4, "run": "c",
+            **{m: 50.0 for m in budget_report.METRICS}, **{f"{m}_sd": 1.0 for m in budget_report.METRICS}}
+    case["h1"] = 18.0
+    parts = budget_report.soil_slopes(pd.DataFrame([case]), holes, bonds)
+    h1 = parts.set_index("metric").loc["h1"]
+    assert h1.slope_mm_per_kpa == pytest.approx(-0.2) and h1.soil_part == pytest.approx(1.5)
+    assert h1.soil_part_hi > h1.soil_part and parts.set_index("metric").loc["L0"].soil_part == pytest.approx(0.0)
+    comparison = pd.DataFrame([{"soil": "clay", "metric": "h1", "field_mean": 13.5, "sim_mean": 16.0, "band": 5.0,
+                                "calibration_target": False, "n_holes": 4, "n_runs": 1}])
+    row = budget_report.table(comparison, holes[holes.seed == 1], pd.DataFrame(columns=["metric"]), 6.0, None, None,
+                              parts).iloc[0]
+    assert row.soil_parameters == pytest.approx(1.5) and "soil_parameters" not in row.not_measured

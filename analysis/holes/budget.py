@@ -8,6 +8,9 @@ the error budget that splits a miss into its parts, and the screening of the mac
   and the rest, which the finest model leaves (the limit − field); beside them the uncertainties (measurement
   band, the machine's interval propagated, the soil's parameters, packing scatter) as half-widths, combined in
   quadrature. The systematic parts add up to the miss; the uncertain ones say how much of it is resolved.
+- `bond_interval`: the 95 % interval of a soil's cone-fitted bond from its cone calibration: the cone index's slope
+  in the bond over the calibration's iterations, and the mean over the replicate packings at the adopted bond with
+  its t-interval, carried back through the slope to the bond that meets the target.
 - `morris`: SALib's Morris screening of a model over the machine's unknowns (penetration, spring, preload, plate
   diameter and rest position): which matter, before any is fitted.
 """
@@ -94,6 +97,29 @@ def budget(sim_mean: float, field_mean: float, limit: float, **half_widths: floa
             "uncertain": uncertain, "resolved": bool(abs(miss) > uncertain),
             "dominant": max(measured, key=measured.get) if measured else "",
             "not_measured": ", ".join(k for k in sizes if k not in measured)}
+
+
+def bond_interval(bonds, cone_means, adopted: float, replicates, target: float) -> dict:
+    """A cone-fitted bond's 95 % interval (module doc). `bonds`, `cone_means`: the calibration's iterations (the bond
+    tried, the cone index over its packings); `replicates`: cone indices of packings at the `adopted` bond.
+    `centre` is the bond whose replicate mean meets `target`; `half_width` the t-interval of that mean (n − 1 degrees
+    of freedom) over the slope. NaN half-width with one replicate or a slope that is not positive.
+
+    >>> r = bond_interval([40, 50, 60], [370, 450, 530], 50, [440, 450, 460], 450)
+    >>> round(r["slope"], 2), round(r["centre"], 2), round(r["half_width"], 2)
+    (8.0, 50.0, 3.11)
+    """
+    from scipy.stats import t
+    x, y, rep = (np.asarray(v, float) for v in (bonds, cone_means, replicates))
+    slope = float(np.polyfit(x, y, 1)[0]) if len(np.unique(x)) >= 2 else math.nan
+    n = len(rep)
+    mean = float(rep.mean())
+    ok = n >= 2 and math.isfinite(slope) and slope > 0
+    half = float(t.ppf(0.975, n - 1) * rep.std(ddof=1) / math.sqrt(n) / slope) if ok else math.nan
+    centre = adopted + (target - mean) / slope if math.isfinite(slope) and slope > 0 else math.nan
+    return {"slope": slope, "adopted": float(adopted), "replicates": n, "cone_mean": mean,
+            "cone_sd": float(rep.std(ddof=1)) if n > 1 else math.nan, "centre": float(centre), "half_width": half,
+            "lo": float(centre - half), "hi": float(centre + half)}
 
 
 MACHINE_UNKNOWNS = {"disk.penetration": (70.0, 95.0), "sleeve.stiffness": (0.5, 8.0), "sleeve.preload": (0.0, 50.0),

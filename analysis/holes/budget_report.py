@@ -8,7 +8,10 @@ its parts (analysis/holes/budget.py), each from the result that measures it:
   metric's slopes in P and k over the machine design's runs, in quadrature (linear propagation);
 - packing: the 95 % half-width of the mean over the preset's packings (Student's t over the runs' means), when it
   ran two or more;
-- soil: the soil parameters' uncertainty through the runs, when a posterior's samples have been run (not yet).
+- soil: the cone-fitted bond's 95 % half-width (its cone calibration's replicate packings, budget.bond_interval)
+  times the metric's slope in the bond, from the strip with the bond stepped down (configs/studies/soil_bond.toml,
+  results/studies/soil_bond.csv) against the same packing's validation strip (results/validation/soil_bond.csv).
+  The soils' other contact parameters are fixed, not calibrated, so this part is the bond's share only.
 
 A part not measured stays empty and is named in the row; nothing is filled in.
 """
@@ -22,7 +25,7 @@ import pandas as pd
 
 from analysis.core.io import atomic_csv, read_table, shown, stamp
 from analysis.core.schema import ROOT, ConfigError
-from analysis.holes.budget import budget
+from analysis.holes.budget import bond_interval, budget
 from analysis.holes.compare import t975
 
 METRICS = ("L0", "L1", "L2", "L2_surface", "h1")
@@ -73,10 +76,56 @@ def packing_half_width(holes: pd.DataFrame, metric: str) -> float:
     return float(t975(len(means) - 1) * means.std(ddof=1) / math.sqrt(len(means)))
 
 
+def soil_bonds(calibration_dir: Path = ROOT / "results/calibration") -> pd.DataFrame:
+    """Each soil's cone-fitted bond with its 95 % interval (kPa): the calibration's iterations (results/calibration/
+    <soil>.csv) and the replicate packings at the adopted bond (cone_checks.csv, check = replicate), against
+    Table 2's cone index."""
+    from analysis.core.soil_config import table2_row
+    checks = read_table(Path(calibration_dir) / "cone_checks.csv")
+    rows = []
+    for soil, rep in checks[checks.check == "replicate"].groupby("soil", sort=False):
+        its = read_table(Path(calibration_dir) / f"{soil}.csv").groupby("iteration").agg(
+            bond=("normal_cohesion_pa", "first"), cone=("mean_kpa", "first"))
+        target = table2_row(soil, "configs/field/table2_soils.csv")["cone_index_kPa"]
+        adopted = float(rep.cohesion_kpa.iloc[0])
+        rows.append({"soil": soil, **bond_interval(its.bond / 1000, its.cone, adopted, rep.cone_index_kpa, target),
+                     "target_kpa": target, "seeds": ",".join(str(int(v)) for v in rep.seed)})
+    return pd.DataFrame(rows)
+
+
+def soil_slopes(study: pd.DataFrame, holes: pd.DataFrame, bonds: pd.DataFrame, metrics=METRICS) -> pd.DataFrame:
+    """Per soil and metric: the shift of the strip with the bond stepped (a row of the study's table) from the same
+    packing's validation strip (its holes), with its 95 % interval (compare.shift), over the bond step: the slope
+    (mm per kPa), and the soil part, |slope| × the bond's half-width, with the same for the shift's interval."""
+    from analysis.holes.compare import shift
+    rows = []
+    for case in study.to_dict("records"):
+        b = bonds[bonds.soil == case["soil"]]
+        base = holes[(holes.soil == case["soil"]) & (holes.seed == case["seed"]) & holes.found.astype(bool)]
+        if b.empty or base.empty:
+            continue
+        b = b.iloc[0]
+        step = case["soil.normal_cohesion"] / 1000 - b.adopted
+        for m in metrics:
+            d = shift(case[m], case[f"{m}_sd"], int(case["found"]), base[m].mean(), base[m].std(ddof=1),
+                      int(base[m].notna().sum()))
+            slope = d["shift"] / step
+            rows.append({"soil": case["soil"], "metric": m, "seed": case["seed"], "bond_kpa": b.adopted,
+                         "step_kpa": step, "shift": d["shift"], "shift_lo": d["shift_lo"], "shift_hi": d["shift_hi"],
+                         "resolved": d["resolved"], "slope_mm_per_kpa": slope,
+                         "bond_half_width_kpa": b.half_width, "soil_part": abs(slope) * b.half_width,
+                         "soil_part_hi": max(abs(d["shift_lo"]), abs(d["shift_hi"])) / abs(step) * b.half_width,
+                         "run": case["run"]})
+    return pd.DataFrame(rows)
+
+
 def table(comparison: pd.DataFrame, holes: pd.DataFrame, grain: pd.DataFrame, radius_mm: float,
-          machine_rows: pd.DataFrame | None, machine_fit: pd.Series | None) -> pd.DataFrame:
+          machine_rows: pd.DataFrame | None, machine_fit: pd.Series | None,
+          soil_parts: pd.DataFrame | None = None) -> pd.DataFrame:
     """One row per soil and metric of one preset's comparison: the miss, its parts and what was not measured."""
     shifts = grain_shift(grain, radius_mm)
+    soil_part = {} if soil_parts is None or soil_parts.empty else \
+        soil_parts.set_index(["soil", "metric"]).soil_part.to_dict()
     slopes = machine_slopes(machine_rows) if machine_rows is not None else {}
     rows = []
     for r in comparison[comparison.metric.isin(METRICS)].itertuples():
@@ -84,7 +133,7 @@ def table(comparison: pd.DataFrame, holes: pd.DataFrame, grain: pd.DataFrame, ra
         parts = {"measurement": float(r.band) if pd.notna(r.band) else math.nan,
                  "machine": machine_half_width(slopes.get(r.metric), machine_fit) if machine_fit is not None else math.nan,
                  "packing": packing_half_width(holes[holes.soil == r.soil], r.metric),
-                 "soil": math.nan}
+                 "soil": soil_part.get((r.soil, r.metric), math.nan)}
         b = budget(r.sim_mean, r.field_mean, r.sim_mean - shift, **parts)
         b["soil_parameters"] = b.pop("soil")          # the part's column, beside the soil's name
         b["not_measured"] = ", ".join("soil_parameters" if k == "soil" else k for k in b["not_measured"].split(", ") if k)
@@ -121,7 +170,18 @@ def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Pat
         if p.machine in fits.index:
             machine_fit = fits.loc[p.machine]
             machine_rows = read_table(Path(machine_dir) / "machine.csv")
-    t = table(comparison, holes, grain, radius_mm, machine_rows, machine_fit)
+    bonds = soil_bonds()
+    study_path = ROOT / "results/studies/soil_bond.csv"
+    soil_parts = soil_slopes(read_table(study_path), holes, bonds) if study_path.exists() else None
+    if soil_parts is not None and len(soil_parts):
+        bond_cols = ["soil", "adopted", "centre", "half_width", "lo", "hi", "slope", "cone_mean", "cone_sd",
+                     "replicates", "seeds", "target_kpa"]
+        atomic_csv(soil_parts.merge(bonds[bond_cols].rename(columns={"slope": "cone_slope_kpa_per_kpa"}), on="soil")
+                   .round(4), Path(out) / "soil_bond.csv",
+                   stamp(f"./holes budget --preset {preset}") + "; the cone-fitted bond's 95 % interval (kPa, from "
+                   "results/calibration/<soil>.csv and cone_checks.csv replicates) and each metric's slope in it "
+                   "(results/studies/soil_bond.csv against the same packing's validation strip); mm")
+    t = table(comparison, holes, grain, radius_mm, machine_rows, machine_fit, soil_parts)
     t = t[["soil", "metric", "calibration_target", "field_mean", "sim_mean", "n_holes", "n_runs", "miss", "grain_size",
            "grain_size_lo", "grain_size_hi", "model", "measurement", "machine", "packing", "soil_parameters",
            "uncertain", "resolved", "dominant", "not_measured"]]
