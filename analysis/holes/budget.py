@@ -109,14 +109,14 @@ def bond_interval(bonds, cone_means, adopted: float, replicates, target: float) 
     >>> round(r["slope"], 2), round(r["centre"], 2), round(r["half_width"], 2)
     (8.0, 50.0, 3.11)
     """
-    from scipy.stats import t
+    from analysis.holes.compare import t975
     x, y, rep = (np.asarray(v, float) for v in (bonds, cone_means, replicates))
     slope = float(np.polyfit(x, y, 1)[0]) if len(np.unique(x)) >= 2 else math.nan
     n = len(rep)
     mean = float(rep.mean())
-    ok = n >= 2 and math.isfinite(slope) and slope > 0
-    half = float(t.ppf(0.975, n - 1) * rep.std(ddof=1) / math.sqrt(n) / slope) if ok else math.nan
-    centre = adopted + (target - mean) / slope if math.isfinite(slope) and slope > 0 else math.nan
+    rising = math.isfinite(slope) and slope > 0
+    half = float(t975(n - 1) * rep.std(ddof=1) / math.sqrt(n) / slope) if rising and n >= 2 else math.nan
+    centre = adopted + (target - mean) / slope if rising else math.nan
     return {"slope": slope, "adopted": float(adopted), "replicates": n, "cone_mean": mean,
             "cone_sd": float(rep.std(ddof=1)) if n > 1 else math.nan, "centre": float(centre), "half_width": half,
             "lo": float(centre - half), "hi": float(centre + half)}

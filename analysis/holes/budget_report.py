@@ -170,12 +170,14 @@ def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Pat
         if p.machine in fits.index:
             machine_fit = fits.loc[p.machine]
             machine_rows = read_table(Path(machine_dir) / "machine.csv")
-    bonds = soil_bonds()
     study_path = ROOT / "results/studies/soil_bond.csv"
-    soil_parts = soil_slopes(read_table(study_path), holes, bonds) if study_path.exists() else None
+    soil_parts = None
+    if study_path.exists():
+        bonds = soil_bonds()
+        soil_parts = soil_slopes(read_table(study_path), holes, bonds)
     if soil_parts is not None and len(soil_parts):
-        bond_cols = ["soil", "adopted", "centre", "half_width", "lo", "hi", "slope", "cone_mean", "cone_sd",
-                     "replicates", "seeds", "target_kpa"]
+        bond_cols = ["soil", "centre", "lo", "hi", "slope", "cone_mean", "cone_sd", "replicates", "seeds",
+                     "target_kpa"]        # the adopted bond and its half-width are soil_slopes' bond_kpa and bond_half_width_kpa
         atomic_csv(soil_parts.merge(bonds[bond_cols].rename(columns={"slope": "cone_slope_kpa_per_kpa"}), on="soil")
                    .round(4), Path(out) / "soil_bond.csv",
                    stamp(f"./holes budget --preset {preset}") + "; the cone-fitted bond's 95 % interval (kPa, from "
