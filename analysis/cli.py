@@ -108,8 +108,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cohesion-range", type=cohesion_range, default=(0.0, 200000.0),
                    help="lo,hi in Pa (default 0,200000)")
     p.add_argument("--bench", action="store_true",
-                   help="calibrate bond, friction and new-contact cohesion on the shear box and the collapse test with "
-                        "GrainLearning (configs/bench_calibration.toml, configs/field/soil_targets.csv) instead")
+                   help="calibrate bond, friction, new-contact cohesion and rolling friction on the shear box and the "
+                        "collapse test (and the cone, where the soil's cone_target is set) with GrainLearning "
+                        "(configs/bench_calibration.toml, configs/field/soil_targets.csv) instead")
     p.add_argument("--cones", type=evaluation_ids, default=None,
                    help="with --bench: no calibration; the cone check of these finished evaluations of the soil "
                         "(ids of results/calibration/bench/<soil>/, comma-separated), --workers at a time: the cone "

@@ -369,3 +369,35 @@ def test_a_soils_own_bench_settings_replace_the_common_ones_and_bad_ones_are_ref
         (tmp_path / "b.toml").write_text(text[:text.index("[soil_bench")] + extra + "\n")
         with pytest.raises(ConfigError, match=re.escape(match)):
             bench.load_config(tmp_path / "b.toml", soil="sand")
+
+
+def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has_its_own_cone(tmp_path, monkeypatch):
+    """`cone_target`: the filter reads the cone index beside the bench's three responses, each evaluation's cone on
+    the cone's bed of the evaluation's own packing; the check runs a cone on every check packing and judges it
+    against Table 2 ± the tolerance like the bench responses; the posterior names the cone among its targets."""
+    def fake(soil, seed, params, cfg, out_dir):
+        return {"soil": soil, "seed": seed, **params, **made_up_bench(params), "tau_peak_kpa": [], "wall_s": 0.0}
+    monkeypatch.setattr(bench, "evaluate", fake)
+    cones = []
+
+    def fake_cone(args, log_path):                    # a cone that reads 2 kPa per kPa of bond plus 5 kPa per packing
+        cones.append(int(args[args.index("--seed") + 1]))
+        return {"cone_index_pa": 1e3 * (2 * float(args[args.index("--cohesion") + 1]) / 1e3 + 5 * cones[-1])}
+    monkeypatch.setattr(bench, "cone_scene", fake_cone)
+    cfg = {**bench.load_config(soil="clay"), "samples": 8, "iterations": 2, "workers": 2}
+    assert cfg["cone_target"] and bench.target_ranges("clay", cfg)["cone_kpa"] == pytest.approx((382.5, 517.5))
+    post = bench.calibrate("clay", cfg, tmp_path)
+    table = pd.read_csv(tmp_path / "clay.csv", comment="#")
+    assert len(table) == 16 and table["cone_kpa"].notna().all()
+    assert table["cone_kpa"].to_numpy() == pytest.approx(2 * table["normal_cohesion"].round(-1) / 1e3 + 5, abs=0.5)
+    assert set(cones) == {cfg["calibration_seed"]} and "cone_kpa" in post["targets"]
+    result = bench.check("clay", post, cfg, tmp_path)
+    assert sorted(cones[16:]) == sorted(cfg["check_seeds"])
+    assert result["cone_kpa"]["sd"] > 0 and result["cone_kpa"]["target"] == pytest.approx([382.5, 517.5])
+    assert "cone_kpa" in pd.read_csv(tmp_path / "clay-check.csv", comment="#")
+    text = bench.CONFIG.read_text()
+    for old, new, match in [("cone_target = true", "cone_target = 1", "cone_target"),
+                            ("[cone_check]", "[cone_elsewhere]", "cone_target = true without a [cone_check]")]:
+        (tmp_path / "b.toml").write_text(text.replace(old, new))
+        with pytest.raises(ConfigError, match=re.escape(match)):
+            bench.load_config(tmp_path / "b.toml", soil="clay")

@@ -22,8 +22,8 @@ MIDDLE = 1.5            # a target's middle in units of its range: 1 + (value - 
 
 def in_ranges(value, target) -> float:
     """A response in units of its target's range (lo, hi): the range's middle reads 1.5. A response the model could
-    not give (NaN: its test stopped) reads as a miss a thousand ranges off, so its sample weighs nothing and the
-    filter carries on.
+    not give (NaN: its test stopped, or the test after it never ran) reads as a miss a thousand ranges off, so its
+    sample weighs nothing and the filter carries on.
 
     >>> in_ranges(6.0, (0.0, 12.0)), in_ranges(38.0, (28.0, 38.0)), in_ranges(float("nan"), (20.0, 35.0))
     (1.5, 2.0, 1000.0)
@@ -56,7 +56,8 @@ def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations:
     def run(calib):
         rows = [dict(zip(names, map(float, row))) for row in calib.system.param_data]
         outs = model(rows) if batch else [model(row) for row in rows]
-        calib.system.set_sim_data([np.array([[in_ranges(out[r], targets[r]) for r in responses]]) + step for out in outs])
+        calib.system.set_sim_data([np.array([[in_ranges(out.get(r, np.nan), targets[r]) for r in responses]]) + step
+                                   for out in outs])
 
     calib = BayesianCalibration.from_dict({
         "num_iter": iterations, "callback": run, "save_fig": -1,

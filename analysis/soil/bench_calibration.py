@@ -2,7 +2,8 @@
 strength, inter-particle friction, the cohesion a contact gets when it forms after disturbance, rolling friction)
 fitted with GrainLearning's Bayesian filter
 (analysis/soil/bayes.py) to the direct shear box's c and φ and the collapse test's slope
-(configs/field/soil_targets.csv), every evaluation a YADE run of scripts/shear.py and scripts/collapse.py in its
+(configs/field/soil_targets.csv), and where a soil's bench settings say so (`cone_target`) to the cone index of
+Table 2 too, every evaluation a YADE run of scripts/shear.py and scripts/collapse.py (and scripts/cone.py) in its
 own folder, results/calibration/bench/<soil>/<id>/, reused when the filter asks for it again (the filter's
 samples repeat themselves: its random state is fixed), so a stopped calibration resumes. The holes never enter.
 The prior is the config's common ranges, or a soil's own narrower ones (`[soil_bounds.<soil>]`); the response
@@ -81,7 +82,12 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
     unknown = sorted((set(fixed) | set(bounds)) - set(SOIL_FIELDS))
     if unknown:
         raise ConfigError(f"{path}: {', '.join(unknown)}: allowed soil contact parameters {', '.join(SOIL_FIELDS)}")
+    if not isinstance(bench.get("cone_target", False), bool):
+        raise ConfigError(f"{path}: cone_target = {bench['cone_target']!r}: allowed true or false")
     cone = cfg.get("cone_check")
+    if bench.get("cone_target") and cone is None:
+        raise ConfigError(f"{path}: cone_target = true without a [cone_check] section: the cone's bed and cone are "
+                          "not given")
     if cone is not None:
         need_cone = {"resolution", "size_mm", "seed", "cone_scale", "speed_m_s", "tolerance"}
         if need_cone - set(cone):
@@ -90,6 +96,14 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
             raise ConfigError(f"{path}: cone_check.tolerance = {cone['tolerance']}: allowed (0, 1), a share of Table 2")
     return {**bench, "bounds": {k: tuple(map(float, v)) for k, v in bounds.items()},
             "fixed": {k: float(v) for k, v in fixed.items()}, **({"cone_check": dict(cone)} if cone else {})}
+
+
+def target_ranges(soil: str, cfg: dict) -> dict:
+    """Each of the filter's responses' target range (lo, hi): the bench's from configs/field/soil_targets.csv, the
+    cone's Table 2 ± the [cone_check] tolerance."""
+    t = load_targets(soil)
+    ranges = {r: (float(t.loc[r, "lo"]), float(t.loc[r, "hi"])) for r in RESPONSES}
+    return {**ranges, **({"cone_kpa": cone_range(soil, cfg)} if cfg.get("cone_target") else {})}
 
 
 def load_targets(soil: str, path: Path = TARGETS) -> pd.DataFrame:
@@ -183,15 +197,19 @@ def _shear_peaks(folder: Path) -> list[float]:
 
 
 def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out_dir: Path = BENCH_DIR,
-                 cfgs: list[dict] | None = None) -> list[dict]:
+                 cfgs: list[dict] | None = None, with_cone: bool = False) -> list[dict]:
     """Every (seed, parameters) evaluation, `cfg["workers"]` at a time, with progress and an ETA; `cfgs`: each
-    evaluation's own bench settings in place of cfg (the size check's two boxes)."""
+    evaluation's own bench settings in place of cfg (the size check's two boxes); `with_cone`: each tested one's
+    cone index too, on the cone's bed of the same packing seed (`cone_check`)."""
     rows: list = [None] * len(seeds_params)
     wall0 = time.time()
 
     def one(i):
         seed, params = seeds_params[i]
-        rows[i] = evaluate(soil, seed, params, cfgs[i] if cfgs else cfg, out_dir)
+        row = evaluate(soil, seed, params, cfgs[i] if cfgs else cfg, out_dir)
+        if with_cone and not row.get("failed"):
+            row = {**row, "cone_kpa": cone_check(soil, params, cfg, out_dir, seed)["mean"]}
+        rows[i] = row
         done = sum(r is not None for r in rows)
         elapsed = time.time() - wall0
         say(f"calibrate {soil}: {done}/{len(seeds_params)} evaluations done, {elapsed:.0f} s, "
@@ -212,11 +230,11 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     history = []
 
     def model_batch(rows: list[dict]) -> list[dict]:
-        out = evaluate_all(soil, [(seed, p) for p in rows], cfg, out_dir)
+        out = evaluate_all(soil, [(seed, p) for p in rows], cfg, out_dir, with_cone=bool(cfg.get("cone_target")))
         history.append(out)
         return out
 
-    ranges = {r: (float(targets.loc[r, "lo"]), float(targets.loc[r, "hi"])) for r in RESPONSES}
+    ranges = target_ranges(soil, cfg)
     post = bayes(model_batch, ranges, cfg["bounds"], samples=int(cfg["samples"]), iterations=int(cfg["iterations"]),
                  batch=True)
     table = pd.DataFrame([{**r, "iteration": i + 1} for i, rows in enumerate(history) for r in rows])
@@ -228,8 +246,9 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     summary["prior"] = {k: list(v) for k, v in cfg["bounds"].items()}
     summary["interval"] = weighted_intervals(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
     summary["correlation"] = weighted_correlation(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
-    summary["targets"] = {r: [float(targets.loc[r, "lo"]), float(targets.loc[r, "hi"]), targets.loc[r, "source"]]
-                          for r in RESPONSES}
+    summary["targets"] = {r: [*ranges[r], targets.loc[r, "source"] if r in targets.index else
+                              f"Table 2 ± {float(cfg['cone_check']['tolerance']):g} (configs/soils/{soil}.toml)"]
+                          for r in ranges}
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_csv(table.drop(columns=["tau_peak_kpa"], errors="ignore"), Path(out_dir) / f"{soil}.csv")
     atomic_write(Path(out_dir) / f"{soil}-posterior.json", json.dumps(summary, indent=1))
@@ -266,20 +285,20 @@ def weighted_correlation(table: pd.DataFrame, names: list[str], w) -> dict:
 def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> dict:
     """The posterior mean's bench responses on each check packing against the targets' ranges; writes
     results/calibration/bench/<soil>-check.csv. Returns per response: the mean over packings, their SD and
-    whether every packing lies inside the target's range; with a [cone_check], the cone index too (`cone_check`)."""
+    whether every packing lies inside the target's range; with a [cone_check], the cone index too: on every check
+    packing when the filter fitted it (`cone_target`), else on the cone's one packing (`cone_check`)."""
     cfg = cfg or load_config(soil=soil)
-    targets = load_targets(soil)
     params = {k: float(v) for k, v in post["mean"].items()}
-    rows = evaluate_all(soil, [(int(s), params) for s in cfg["check_seeds"]], cfg, out_dir)
+    rows = evaluate_all(soil, [(int(s), params) for s in cfg["check_seeds"]], cfg, out_dir,
+                        with_cone=bool(cfg.get("cone_target")))
     table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
     atomic_csv(table, Path(out_dir) / f"{soil}-check.csv")
     out = {}
-    for r in RESPONSES:
-        lo, hi = float(targets.loc[r, "lo"]), float(targets.loc[r, "hi"])
+    for r, (lo, hi) in target_ranges(soil, cfg).items():
         v = table[r].to_numpy(float)
         out[r] = {"mean": float(v.mean()), "sd": float(v.std(ddof=1)) if len(v) > 1 else float("nan"),
                   "target": [lo, hi], "every_packing_inside": bool(np.all((v >= lo) & (v <= hi)))}
-    if "cone_check" in cfg:
+    if "cone_check" in cfg and "cone_kpa" not in out:
         out["cone_kpa"] = cone_check(soil, params, cfg, out_dir)
     atomic_write(Path(out_dir) / f"{soil}-check.json", json.dumps(out, indent=1))
     return out
@@ -333,11 +352,13 @@ def size_verdict(table: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
+def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, seed: int | None = None) -> dict:
     """The parameter set's cone index on the cone calibration's bed (cfg's [cone_check]: its grains, periodic cell,
-    cone, speed and packing) against Table 2's, a check the filter never sees: inside when within the tolerance,
-    one such bed's scatter. The cone's summary is kept as <out_dir>/cone/<soil>-s<seed>-<hash>.json and reused."""
-    c = cfg["cone_check"]
+    cone, speed and packing, or packing `seed`) against Table 2's: inside when within the tolerance, one such bed's
+    scatter. The cone's summary is kept as <out_dir>/cone/<soil>-s<seed>-<hash>.json and reused."""
+    c = dict(cfg["cone_check"])
+    if seed is not None:
+        c["seed"] = int(seed)
     key = {"params": dict(sorted(rounded(params).items())), "fixed": dict(sorted(cfg.get("fixed", {}).items())),
            "cone": {k: v for k, v in sorted(c.items()) if k != "tolerance"}}
     digest = hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]
@@ -354,11 +375,11 @@ def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) ->
                               *[a for item in items for a in ("--test-set", item)]], path.with_suffix(".log"))
         atomic_write(path, json.dumps(summary, indent=1))
     value = summary["cone_index_pa"] / 1000
-    lo, hi = cone_target(soil, cfg)
+    lo, hi = cone_range(soil, cfg)
     return {"mean": float(value), "sd": float("nan"), "target": [lo, hi], "every_packing_inside": bool(lo <= value <= hi)}
 
 
-def cone_target(soil: str, cfg: dict) -> tuple[float, float]:
+def cone_range(soil: str, cfg: dict) -> tuple[float, float]:
     """Table 2's cone index ± the [cone_check] tolerance, kPa."""
     from analysis.core.soil_config import load_soil
     table2, tol = load_soil(soil).cone_index / 1000, float(cfg["cone_check"]["tolerance"])
@@ -389,7 +410,7 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
     path = Path(out_dir) / f"{soil}-cones.csv"
     if path.exists():
         table = pd.concat([pd.read_csv(path, comment="#"), table]).drop_duplicates("id", keep="last")
-    lo, hi = cone_target(soil, cfg)
+    lo, hi = cone_range(soil, cfg)
     atomic_csv(table.round(4), path, f"./holes calibrate --soil {soil} --bench --cones ID,...; the cone index of "
                f"[cone_check] beside each evaluation's bench responses; Table 2 ± tolerance: {lo:g}-{hi:g} kPa")
     return table
@@ -440,27 +461,25 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.4), squeeze=False)
     for j, r in enumerate(panels):
         ax = axes[0][j]
-        if r == "cone_kpa":             # the check's cone beside Table 2 ± its tolerance; the filter never saw it
-            for i, soil in enumerate(soils):
-                if "cone_kpa" in checks.get(soil, {}):
-                    lo, hi = checks[soil]["cone_kpa"]["target"]
-                    ax.add_patch(plt.Rectangle((i - 0.35, lo), 0.7, hi - lo, color=colours[soil], alpha=0.2))
-                    ax.scatter([i + 0.15], [checks[soil]["cone_kpa"]["mean"]], s=36, marker="D", c=colours[soil])
-            ax.set_xticks(range(len(soils)), soils), ax.set_title("cone_kpa (packing 1, against Table 2)")
-            ax.set_xlim(-0.6, len(soils) - 0.4), ax.autoscale_view()
-            continue
         for i, soil in enumerate(soils):
-            target = load_targets(soil).loc[r]
-            ax.add_patch(plt.Rectangle((i - 0.35, target["lo"]), 0.7, target["hi"] - target["lo"], color=colours[soil],
-                                       alpha=0.2, label="target range" if i == 0 else None))
+            if r == "cone_kpa":         # Table 2 ± its tolerance; a check on packing 1 unless the filter fitted it
+                if r not in checks.get(soil, {}):
+                    continue
+                lo, hi = checks[soil][r]["target"]
+            else:
+                lo, hi = load_targets(soil).loc[r, ["lo", "hi"]]
+            ax.add_patch(plt.Rectangle((i - 0.35, lo), 0.7, hi - lo, color=colours[soil], alpha=0.2,
+                                       label="target range" if i == 0 else None))
             t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
-            ax.scatter(np.full(len(t), i - 0.15), t[r], s=10, c="0.5", label="filter's samples" if i == 0 else None)
+            if r in t:
+                ax.scatter(np.full(len(t), i - 0.15), t[r], s=10, c="0.5", label="filter's samples" if i == 0 else None)
             check_path = Path(out_dir) / f"{soil}-check.csv"
-            if check_path.exists():
-                c = pd.read_csv(check_path, comment="#")
-                ax.scatter(np.full(len(c), i + 0.15), c[r], s=36, marker="D", c=colours[soil],
-                           label="posterior mean, 3 packings" if i == 0 else None)
+            c = pd.read_csv(check_path, comment="#") if check_path.exists() else pd.DataFrame()
+            points = c[r].to_numpy(float) if r in c else [checks[soil][r]["mean"]] if r in checks.get(soil, {}) else []
+            ax.scatter(np.full(len(points), i + 0.15), points, s=36, marker="D", c=colours[soil],
+                       label="posterior mean, check packings" if i == 0 else None)
         ax.set_xticks(range(len(soils)), soils), ax.set_title(r), ax.set_xlim(-0.6, len(soils) - 0.4)
+        ax.autoscale_view()
     axes[0][0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(paths[1], dpi=110)
