@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from analysis import cli
@@ -297,6 +298,20 @@ def test_a_morris_section_makes_one_case_per_design_point_and_the_screening_rank
     ranks = screening(table, head["morris"], ["L2"])
     assert list(ranks.field) == ["disk.penetration", "sleeve.stiffness"] and set(ranks.trajectories) == {3}
     assert set(screening(table.iloc[1:], head["morris"], ["L2"]).trajectories) == {2}
+
+
+def test_the_screening_says_which_field_stands_above_the_holes_scatter(tmp_path):
+    """With each case's holes' SD in the table, a field that moves L2 by 13 mm over its range stands above what
+    2-hole means scattering by 2 mm give, and a field that moves it by nothing stays under."""
+    import pandas as pd
+    from analysis.batch.study import screening
+    head, cases = load_study(morris_file(tmp_path, MORRIS.replace("trajectories = 3", "trajectories = 6")))
+    rng = np.random.default_rng(3)
+    table = pd.DataFrame([{**c.fields, "L2": 0.9 * c.fields["disk.penetration"] + rng.normal(0, 2 / np.sqrt(2)),
+                           "L2_sd": 2.0, "found": 2} for c in cases])
+    ranks = screening(table, head["morris"], ["L2"]).set_index("field")
+    assert ranks.loc["disk.penetration", "above_noise"] and not ranks.loc["sleeve.stiffness", "above_noise"]
+    assert 2.0 < ranks.loc["sleeve.stiffness", "mu_star_noise95"] < 8.0
 
 
 @pytest.mark.parametrize("change, message", [("levels = 4", "levels = 5"), ("trajectories = 3", "trajectories = 1"),

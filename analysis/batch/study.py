@@ -128,6 +128,8 @@ def morris_design(path, spec: dict) -> dict:
 def screening(table: pd.DataFrame, design: dict, metrics=METRICS) -> pd.DataFrame:
     """The Morris screening of each metric over the finished trajectories: μ* and σ per field, ranked by μ*
     (analysis/holes/budget.py `morris`); a trajectory with an unfinished point is left out. Empty with none whole.
+    Where the table has each case's holes' SD (`<metric>_sd`, `found`): the μ* the holes' scatter alone reaches
+    (`mu_star_noise95`, the 95 % quantile, `morris_noise`) and whether the field's stands above it.
 
     >>> m = morris_design("x", {"trajectories": 4, "bounds": {"a": [0.0, 1.0], "b": [0.0, 1.0]}})
     >>> t = pd.DataFrame([{"a": a, "b": b, "L2": 10 * a + b} for a, b in m["design"]])
@@ -135,7 +137,7 @@ def screening(table: pd.DataFrame, design: dict, metrics=METRICS) -> pd.DataFram
     >>> list(s.field), list(s["rank"])
     (['a', 'b'], [1, 2])
     """
-    from analysis.holes.budget import morris
+    from analysis.holes.budget import morris, morris_noise
     names, X = design["problem"]["names"], np.asarray(design["design"], float)
     per = len(names) + 1
     keys = table[names].to_numpy(float)
@@ -150,8 +152,16 @@ def screening(table: pd.DataFrame, design: dict, metrics=METRICS) -> pd.DataFram
             continue
         take = np.concatenate([np.arange(t * per, (t + 1) * per) for t in whole])
         ranks = morris(design["problem"], X[take], y[take], levels=design["levels"])
+        noise = {}
+        if f"{metric}_sd" in table and "found" in table:
+            se = np.array([np.nan if i is None else table[f"{metric}_sd"].iloc[i] / np.sqrt(table["found"].iloc[i])
+                           for i in row_of], float)
+            if np.isfinite(se[take]).all():
+                noise = morris_noise(design["problem"], X[take], se[take])
         rows += [{"metric": metric, "field": f, "mu_star": v["mu_star"], "sigma": v["sigma"], "rank": i + 1,
-                  "trajectories": len(whole)} for i, (f, v) in enumerate(ranks.items())]
+                  "trajectories": len(whole),
+                  **({"mu_star_noise95": noise[f], "above_noise": bool(v["mu_star"] > noise[f])} if noise else {})}
+                 for i, (f, v) in enumerate(ranks.items())]
     return pd.DataFrame(rows)
 
 
@@ -202,7 +212,8 @@ def write_table(name: str, head: dict, cases: list[Case], rows: dict, runs_dir: 
         screen = screening(table, head["morris"])
         if len(screen):
             atomic_csv(screen.round(4), out / f"{name}-morris.csv", note + "; SALib's Morris screening over the "
-                       "finished trajectories: mu_star, the mean size of a field's elementary effects (mm per its range)")
+                       "finished trajectories: mu_star, the mean size of a field's elementary effects (mm per its range); "
+                       "mu_star_noise95, what the cases' holes' scatter alone reaches (95 %), above_noise")
     comparison = ROOT / "results/comparison.csv"
     if head.get("against") and comparison.exists():
         effect = effect_table(table, head["against"], comparison)
