@@ -395,6 +395,7 @@ def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has
     assert sorted(cones[16:]) == sorted(cfg["check_seeds"])
     assert result["cone_kpa"]["sd"] > 0 and result["cone_kpa"]["target"] == pytest.approx([382.5, 517.5])
     assert "cone_kpa" in pd.read_csv(tmp_path / "clay-check.csv", comment="#")
+    assert [p.name for p in bench.report(tmp_path)][:2] == ["posterior.png", "responses.png"]
     text = bench.CONFIG.read_text()
     for old, new, match in [("cone_target = true", "cone_target = 1", "cone_target"),
                             ("[cone_check]", "[cone_elsewhere]", "cone_target = true without a [cone_check]")]:
