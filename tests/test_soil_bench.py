@@ -396,6 +396,8 @@ def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has
     assert result["cone_kpa"]["sd"] > 0 and result["cone_kpa"]["target"] == pytest.approx([382.5, 517.5])
     assert "cone_kpa" in pd.read_csv(tmp_path / "clay-check.csv", comment="#")
     assert [p.name for p in bench.report(tmp_path)][:2] == ["posterior.png", "responses.png"]
+    planes = pd.read_csv(tmp_path / "surfaces.csv", comment="#").set_index("response")
+    assert planes.loc["cone_kpa", "bond_kpa"] == pytest.approx(2.0, abs=0.1)        # the made-up cone's 2 kPa per kPa
     text = bench.CONFIG.read_text()
     for old, new, match in [("cone_target = true", "cone_target = 1", "cone_target"),
                             ("[cone_check]", "[cone_elsewhere]", "cone_target = true without a [cone_check]")]:

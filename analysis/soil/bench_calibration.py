@@ -540,7 +540,8 @@ def surface_terms(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def response_surfaces(table: pd.DataFrame) -> pd.DataFrame:
-    """Each bench response fitted as a plane in SURFACE_TERMS over a soil's finished evaluations (least squares):
+    """Each bench response (and the cone index, where the table has it) fitted as a plane in SURFACE_TERMS over a
+    soil's finished evaluations (least squares):
     one row per response with its intercept, a coefficient per term, R² and the residual SD (the packing's and the
     plane's misfit together). What each test answers to, and a cheap stand-in for the scenes over the prior.
 
@@ -552,10 +553,11 @@ def response_surfaces(table: pd.DataFrame) -> pd.DataFrame:
     >>> round(s.loc["c_kpa", "bond_kpa"], 3), round(s.loc["phi_deg", "friction_deg"], 3), round(s.loc["collapse_deg", "r2"], 3)
     (0.1, 0.5, 1.0)
     """
-    ok = table.dropna(subset=list(RESPONSES))
-    X = np.column_stack([np.ones(len(ok)), surface_terms(ok).to_numpy(float)])
+    tested = table.dropna(subset=list(RESPONSES))
     rows = []
-    for r in RESPONSES:
+    for r in (*RESPONSES, *(["cone_kpa"] if "cone_kpa" in tested else [])):     # the cone where the filter fitted it
+        ok = tested.dropna(subset=[r])
+        X = np.column_stack([np.ones(len(ok)), surface_terms(ok).to_numpy(float)])
         y = ok[r].to_numpy(float)
         coef, *_ = np.linalg.lstsq(X, y, rcond=None)
         resid = y - X @ coef
@@ -595,7 +597,8 @@ def feasible_region(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict,
 
 def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> list[Path]:
     """Every calibrated soil's response surfaces over its filter's and check's evaluations (surfaces.csv) and
-    where they meet all three of its targets inside the common prior (feasible.csv)."""
+    where they meet all its targets (the cone's too, where the filter fitted it) inside the common prior
+    (feasible.csv)."""
     bounds = bounds or load_config()["bounds"]
     from analysis.core.soil_config import SOILS
     rows, regions = [], []
@@ -606,7 +609,10 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
         table = pd.concat([pd.read_csv(t, comment="#") for t in tables if t.exists()])
         surf = response_surfaces(table).assign(soil=soil)
         rows.append(surf)
-        region = feasible_region(surf, load_targets(soil), bounds)
+        targets = load_targets(soil)
+        if "cone_kpa" in set(surf.response):
+            targets.loc["cone_kpa", ["lo", "hi"]] = cone_range(soil, load_config(soil=soil))
+        region = feasible_region(surf, targets, bounds)
         regions += [{"soil": soil, "parameter": k, "p05": v[0], "p50": v[1], "p95": v[2], "prior_share": region["share"]}
                     for k, v in region.items() if k != "share"]
     if not rows:
@@ -616,6 +622,6 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
     atomic_csv(pd.concat(rows)[["soil", "response", "intercept", *SURFACE_TERMS, "r2", "resid_sd", "n"]].round(5),
                paths[0], f"{note}; each response a plane in the terms over the soil's filter and check evaluations")
     atomic_csv(pd.DataFrame(regions).round(5), paths[1],
-               f"{note}; the share of the common prior where the planes meet all three targets, and each parameter's "
+               f"{note}; the share of the common prior where the planes meet all the soil's targets, and each parameter's "
                "5/50/95 % there")
     return paths
