@@ -373,8 +373,9 @@ def test_a_soils_own_bench_settings_replace_the_common_ones_and_bad_ones_are_ref
 
 def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has_its_own_cone(tmp_path, monkeypatch):
     """`cone_target`: the filter reads the cone index beside the bench's three responses, each evaluation's cone on
-    the cone's bed of the evaluation's own packing; the check runs a cone on every check packing and judges it
-    against Table 2 ± the tolerance like the bench responses; the posterior names the cone among its targets."""
+    the cone's bed of the evaluation's own packing; the table of the finished iterations is kept while it runs;
+    the check runs a cone on every check packing and judges it against Table 2 ± the tolerance like the bench
+    responses; the posterior names the cone among its targets."""
     def fake(soil, seed, params, cfg, out_dir):
         return {"soil": soil, "seed": seed, **params, **made_up_bench(params), "tau_peak_kpa": [], "wall_s": 0.0}
     monkeypatch.setattr(bench, "evaluate", fake)
@@ -386,7 +387,11 @@ def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has
     monkeypatch.setattr(bench, "cone_scene", fake_cone)
     cfg = {**bench.load_config(soil="clay"), "samples": 8, "iterations": 2, "workers": 2}
     assert cfg["cone_target"] and bench.target_ranges("clay", cfg)["cone_kpa"] == pytest.approx((382.5, 517.5))
+    seen = []
+    real_csv = bench.atomic_csv
+    monkeypatch.setattr(bench, "atomic_csv", lambda t, path, *a: (seen.append((path.name, len(t))), real_csv(t, path, *a)))
     post = bench.calibrate("clay", cfg, tmp_path)
+    assert seen[:2] == [("clay-running.csv", 8), ("clay-running.csv", 16)] and not (tmp_path / "clay-running.csv").exists()
     table = pd.read_csv(tmp_path / "clay.csv", comment="#")
     assert len(table) == 16 and table["cone_kpa"].notna().all()
     assert table["cone_kpa"].to_numpy() == pytest.approx(2 * table["normal_cohesion"].round(-1) / 1e3 + 5, abs=0.5)

@@ -222,16 +222,23 @@ def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out
 
 def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> dict:
     """The soil's posterior over cfg's bounds against its targets; writes results/calibration/bench/<soil>.csv
-    (every evaluation with its iteration and last weight) and <soil>-posterior.json."""
+    (every evaluation with its iteration and last weight) and <soil>-posterior.json, and while it runs
+    <soil>-running.csv (the iterations finished so far: a calibration that outlasts a machine shows where it is)."""
     from analysis.soil.bayes import calibrate as bayes
     cfg = cfg or load_config(soil=soil)
     targets = load_targets(soil)
     seed = int(cfg["calibration_seed"])
     history = []
 
+    running = Path(out_dir) / f"{soil}-running.csv"
+
     def model_batch(rows: list[dict]) -> list[dict]:
         out = evaluate_all(soil, [(seed, p) for p in rows], cfg, out_dir, with_cone=bool(cfg.get("cone_target")))
         history.append(out)
+        atomic_csv(pd.DataFrame([{**r, "iteration": i + 1} for i, rows in enumerate(history) for r in rows])
+                   .drop(columns=["tau_peak_kpa"], errors="ignore"), running,
+                   f"./holes calibrate --soil {soil} --bench: the filter's finished iterations, until its posterior "
+                   f"is drawn ({len(history)} of {cfg['iterations']})")
         return out
 
     ranges = target_ranges(soil, cfg)
@@ -252,6 +259,7 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_csv(table.drop(columns=["tau_peak_kpa"], errors="ignore"), Path(out_dir) / f"{soil}.csv")
     atomic_write(Path(out_dir) / f"{soil}-posterior.json", json.dumps(summary, indent=1))
+    running.unlink(missing_ok=True)
     return summary
 
 
