@@ -229,22 +229,24 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     targets = load_targets(soil)
     seed = int(cfg["calibration_seed"])
     history = []
-
     running = Path(out_dir) / f"{soil}-running.csv"
+
+    def finished() -> pd.DataFrame:
+        """Every evaluation of the finished iterations with its iteration (the shear peaks left out)."""
+        return pd.DataFrame([{**r, "iteration": i + 1} for i, batch in enumerate(history) for r in batch]) \
+            .drop(columns=["tau_peak_kpa"], errors="ignore")
 
     def model_batch(rows: list[dict]) -> list[dict]:
         out = evaluate_all(soil, [(seed, p) for p in rows], cfg, out_dir, with_cone=bool(cfg.get("cone_target")))
         history.append(out)
-        atomic_csv(pd.DataFrame([{**r, "iteration": i + 1} for i, rows in enumerate(history) for r in rows])
-                   .drop(columns=["tau_peak_kpa"], errors="ignore"), running,
-                   f"./holes calibrate --soil {soil} --bench: the filter's finished iterations, until its posterior "
-                   f"is drawn ({len(history)} of {cfg['iterations']})")
+        atomic_csv(finished(), running, f"./holes calibrate --soil {soil} --bench: the filter's finished iterations, "
+                   f"until its posterior is drawn ({len(history)} of {cfg['iterations']})")
         return out
 
     ranges = target_ranges(soil, cfg)
     post = bayes(model_batch, ranges, cfg["bounds"], samples=int(cfg["samples"]), iterations=int(cfg["iterations"]),
                  batch=True)
-    table = pd.DataFrame([{**r, "iteration": i + 1} for i, rows in enumerate(history) for r in rows])
+    table = finished()
     table["weight_last"] = np.nan
     last = table["iteration"] == table["iteration"].max()
     table.loc[last, "weight_last"] = np.asarray(post["weights"])[-1] if np.ndim(post["weights"]) > 1 else post["weights"]
@@ -257,7 +259,7 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
                               f"Table 2 ± {float(cfg['cone_check']['tolerance']):g} (configs/soils/{soil}.toml)"]
                           for r in ranges}
     out_dir.mkdir(parents=True, exist_ok=True)
-    atomic_csv(table.drop(columns=["tau_peak_kpa"], errors="ignore"), Path(out_dir) / f"{soil}.csv")
+    atomic_csv(table, Path(out_dir) / f"{soil}.csv")
     atomic_write(Path(out_dir) / f"{soil}-posterior.json", json.dumps(summary, indent=1))
     running.unlink(missing_ok=True)
     return summary
