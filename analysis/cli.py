@@ -65,6 +65,30 @@ def evaluation_ids(text: str) -> list[str]:
     return ids
 
 
+def parameter_set(text: str) -> dict:
+    """A soil contact parameter set, NAME=VALUE comma-separated, each in its soil config range.
+
+    >>> parameter_set("normal_cohesion=1.2e5,friction_deg=16")
+    {'normal_cohesion': 120000.0, 'friction_deg': 16.0}
+    """
+    from analysis.core.soil_config import SOIL_FIELDS
+    out = {}
+    for item in (t.strip() for t in text.split(",") if t.strip()):
+        name, _, value = item.partition("=")
+        if name not in SOIL_FIELDS:
+            raise argparse.ArgumentTypeError(f"--probe {item!r}: allowed NAME=VALUE with NAME one of "
+                                             f"{', '.join(SOIL_FIELDS)}")
+        try:
+            out[name] = SOIL_FIELDS[name].check(f"--probe {name}", float(value))
+        except (ValueError, ConfigError) as e:
+            raise argparse.ArgumentTypeError(str(e) if isinstance(e, ConfigError) else
+                                             f"--probe {name} = {value!r}: allowed a number in "
+                                             f"{SOIL_FIELDS[name].allowed()}")
+    if not out:
+        raise argparse.ArgumentTypeError("--probe: allowed NAME=VALUE,... (the calibrated contact parameters)")
+    return out
+
+
 def run_folder(text: str) -> Path:
     """A finished run's folder: it must hold the run's config.json."""
     if not (Path(text) / "config.json").is_file():
@@ -118,6 +142,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size-check", action="store_true",
                    help="with --bench: no calibration; the posterior mean's bench responses on the check packings in "
                         "the configured box and one grown by half (results/calibration/bench/<soil>-size.csv)")
+    p.add_argument("--probe", type=parameter_set, action="append", default=None, metavar="NAME=VALUE,...",
+                   help="with --bench: no calibration; this parameter set's bench responses and cone index on the "
+                        "calibration packing (every calibrated parameter named; repeat for more sets, run --workers "
+                        "at a time by the config): results/calibration/bench/<soil>-probes.csv")
     p.set_defaults(func=cmd_calibrate)
     p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "
                        "cone-to-particle ratio, core density (results/calibration/cone_checks.csv, .png)")

@@ -49,8 +49,8 @@ def cmd_params(args) -> int:
 def cmd_calibrate(args) -> int:
     if args.bench:
         return cmd_calibrate_bench(args)
-    if args.cones or args.size_check:
-        flag = "--cones" if args.cones else "--size-check"
+    if args.cones or args.size_check or args.probe:
+        flag = "--cones" if args.cones else "--size-check" if args.size_check else "--probe"
         print(f"calibrate: {flag}: allowed only with --bench (a check of the bench calibration)", file=sys.stderr)
         return 2
     from analysis.soil import calibrate
@@ -154,12 +154,13 @@ def cmd_calibrate_bench(args) -> int:
     except ConfigError as e:
         print(f"calibrate: {e}", file=sys.stderr)
         return 2
-    if args.size_check and args.cones:
-        print("calibrate: --size-check with --cones: allowed one of them", file=sys.stderr)
+    if sum(map(bool, (args.size_check, args.cones, args.probe))) > 1:
+        print("calibrate: --size-check, --cones and --probe: allowed one of them", file=sys.stderr)
         return 2
-    if args.cones or args.size_check:           # a check of the calibration, no calibration
+    if args.cones or args.size_check or args.probe:     # a check of the calibration or its prior, no calibration
         try:
             table = (bench.cones(args.soil, args.cones, cfg, workers=args.workers) if args.cones
+                     else bench.probes(args.soil, args.probe, cfg) if args.probe
                      else bench.size_check(args.soil, cfg).round(2))
         except ConfigError as e:
             print(f"calibrate: {e}", file=sys.stderr)

@@ -352,6 +352,41 @@ def test_the_size_check_and_the_cones_are_one_at_a_time(capsys):
     assert "allowed one of them" in capsys.readouterr().err
 
 
+def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_path, monkeypatch, capsys):
+    """`calibrate --bench --probe`: each chosen set's bench responses and cone on the calibration packing in
+    <soil>-probes.csv, earlier probes kept and none rerun; a set naming fewer than the calibrated parameters, or a
+    value out of its range, is refused with exit 2 before any scene."""
+    from analysis.cli import main
+    ran = []
+
+    def fake(soil, seed, params, cfg, out_dir):
+        ran.append(params["normal_cohesion"])
+        return {"id": f"s{seed}-{len(ran):010x}", "soil": soil, "seed": seed, **params, **made_up_bench(params),
+                "tau_peak_kpa": [], "wall_s": 0.0}
+    monkeypatch.setattr(bench, "evaluate", fake)
+    monkeypatch.setattr(bench, "cone_scene",
+                        lambda args, log: {"cone_index_pa": 2e3 * float(args[args.index("--cohesion") + 1]) / 1e3})
+    cfg = bench.load_config(soil="loam")
+    sets = [{"normal_cohesion": b, "friction_deg": 16.0, "new_contact_cohesion": 0.005, "rolling_friction": 0.2}
+            for b in (1.2e5, 0.8e5)]
+    bench.probes("loam", sets[:1], cfg, tmp_path)
+    table = bench.probes("loam", sets[1:], cfg, tmp_path)
+    saved = pd.read_csv(tmp_path / "loam-probes.csv", comment="#")
+    assert ran == [1.2e5, 0.8e5] and len(table) == 2 and len(saved) == 2
+    assert saved.cone_kpa.to_numpy() == pytest.approx([240.0, 160.0], rel=1e-3)
+    assert set(bench.RESPONSES) <= set(saved.columns)
+    with pytest.raises(ConfigError, match="allowed exactly the calibrated parameters"):
+        bench.probes("loam", [{"normal_cohesion": 1e5}], cfg, tmp_path)
+    assert main(["calibrate", "--soil", "loam", "--bench", "--probe", "normal_cohesion=1e5"]) == 2
+    assert "allowed exactly the calibrated parameters" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as stop:
+        main(["calibrate", "--soil", "loam", "--bench", "--probe", "friction_deg=75"])
+    assert stop.value.code == 2 and "friction_deg" in capsys.readouterr().err
+    assert main(["calibrate", "--soil", "loam", "--probe", "friction_deg=20"]) == 2
+    assert "--probe: allowed only with --bench" in capsys.readouterr().err
+    assert ran == [1.2e5, 0.8e5]
+
+
 def test_a_soils_own_bench_settings_replace_the_common_ones_and_bad_ones_are_refused(tmp_path):
     """[soil_bench.<soil>] replaces [bench] keys for that soil only; an unknown soil, a key [bench] lacks or fewer
     than three distinct positive normal stresses is refused naming the field."""

@@ -426,6 +426,29 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
     return table
 
 
+def probes(soil: str, sets: list[dict], cfg: dict, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
+    """Chosen parameter sets' bench responses and cone index on the calibration's packing, cfg's workers at a time:
+    where a soil's prior should lie, looked at before a filter spends its iterations there. Each set names every
+    calibrated parameter (cfg's bounds); each evaluation is a run folder like the filter's and reused by it. Writes
+    <out_dir>/<soil>-probes.csv (these probes and earlier ones)."""
+    names = set(cfg["bounds"])
+    for p in sets:
+        if set(p) != names:
+            raise ConfigError(f"--probe {','.join(sorted(p))}: allowed exactly the calibrated parameters "
+                              f"{', '.join(sorted(names))}, each NAME=VALUE")
+    seed = int(cfg["calibration_seed"])
+    rows = evaluate_all(soil, [(seed, dict(p)) for p in sets], cfg, out_dir, with_cone=True)
+    table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
+    path = Path(out_dir) / f"{soil}-probes.csv"
+    if path.exists():
+        table = pd.concat([pd.read_csv(path, comment="#"), table]).drop_duplicates("id", keep="last")
+    lo, hi = cone_range(soil, cfg)
+    atomic_csv(table.round(4), path, f"./holes calibrate --soil {soil} --bench --probe NAME=VALUE,...; chosen "
+               f"parameter sets' bench responses and [cone_check] cone index on packing {seed}; Table 2 ± "
+               f"tolerance: {lo:g}-{hi:g} kPa")
+    return table
+
+
 def cone_scene(args: list[str], log_path: Path) -> dict:
     """scripts/cone.py with `args` in its own process, its lines to `log_path`; its summary."""
     log_path.parent.mkdir(parents=True, exist_ok=True)
