@@ -78,12 +78,7 @@ def parameter_set(text: str) -> dict:
         if name not in SOIL_FIELDS:
             raise argparse.ArgumentTypeError(f"--probe {item!r}: allowed NAME=VALUE with NAME one of "
                                              f"{', '.join(SOIL_FIELDS)}")
-        try:
-            out[name] = SOIL_FIELDS[name].check(f"--probe {name}", float(value))
-        except (ValueError, ConfigError) as e:
-            raise argparse.ArgumentTypeError(str(e) if isinstance(e, ConfigError) else
-                                             f"--probe {name} = {value!r}: allowed a number in "
-                                             f"{SOIL_FIELDS[name].allowed()}")
+        out[name] = option(f"--probe {name}", SOIL_FIELDS[name])(value)
     if not out:
         raise argparse.ArgumentTypeError("--probe: allowed NAME=VALUE,... (the calibrated contact parameters)")
     return out

@@ -396,6 +396,13 @@ def cone_range(soil: str, cfg: dict) -> tuple[float, float]:
     return table2 * (1 - tol), table2 * (1 + tol)
 
 
+def after_earlier(table: pd.DataFrame, path: Path) -> pd.DataFrame:
+    """`table` after the rows an earlier call kept in `path`, one row per evaluation id (the newest)."""
+    if not path.exists():
+        return table
+    return pd.concat([pd.read_csv(path, comment="#"), table]).drop_duplicates("id", keep="last")
+
+
 def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, workers: int = 2) -> pd.DataFrame:
     """The cone check of finished evaluations (`ids`, folders of <out_dir>/<soil>/), `workers` at a time, beside their
     bench responses: where in the bench's region the cone meets Table 2. Writes <out_dir>/<soil>-cones.csv (every
@@ -418,8 +425,7 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
     with ThreadPoolExecutor(max_workers=workers) as pool:
         table = pd.DataFrame(list(pool.map(one, rows)))
     path = Path(out_dir) / f"{soil}-cones.csv"
-    if path.exists():
-        table = pd.concat([pd.read_csv(path, comment="#"), table]).drop_duplicates("id", keep="last")
+    table = after_earlier(table, path)
     lo, hi = cone_range(soil, cfg)
     atomic_csv(table.round(4), path, f"./holes calibrate --soil {soil} --bench --cones ID,...; the cone index of "
                f"[cone_check] beside each evaluation's bench responses; Table 2 ± tolerance: {lo:g}-{hi:g} kPa")
@@ -440,8 +446,7 @@ def probes(soil: str, sets: list[dict], cfg: dict, out_dir: Path = BENCH_DIR) ->
     rows = evaluate_all(soil, [(seed, dict(p)) for p in sets], cfg, out_dir, with_cone=True)
     table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
     path = Path(out_dir) / f"{soil}-probes.csv"
-    if path.exists():
-        table = pd.concat([pd.read_csv(path, comment="#"), table]).drop_duplicates("id", keep="last")
+    table = after_earlier(table, path)
     lo, hi = cone_range(soil, cfg)
     atomic_csv(table.round(4), path, f"./holes calibrate --soil {soil} --bench --probe NAME=VALUE,...; chosen "
                f"parameter sets' bench responses and [cone_check] cone index on packing {seed}; Table 2 ± "
