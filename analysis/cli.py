@@ -184,7 +184,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--preset", default="validation_medium",
                    help="run preset of configs/presets.toml (default validation_medium: the machine calibrated on "
                    "clay, 8 holes per soil, r = 6 mm grains; validation_surface is the same at r = 5 mm)")
-    p.add_argument("--soils", default="clay,loam,sand")
+    p.add_argument("--soils", default="clay,loam,sand", help="the soils to run (default all three); the preset's "
+                   "table also keeps every other soil's finished or kept run of the same settings and seeds")
     p.add_argument("--seeds", type=option("--seeds", SEED, many=True),
                    help="packing seeds, one run each, e.g. 1,2,3 (default: the preset's `seeds`, else 1)")
     p.add_argument("--scheduler", type=scheduler_address, help="Dask distributed scheduler address (tcp://host:8786): "

@@ -107,3 +107,20 @@ def test_compare_refuses_bad_input_before_any_scene(tmp_path, args, field):
                        capture_output=True, text=True, timeout=120, cwd=ROOT)
     assert r.returncode == 2 and field in r.stderr
     assert not (tmp_path / "beds").exists() and not (tmp_path / "runs").exists()
+
+
+def test_a_table_remade_for_one_soil_keeps_the_others_runs(tmp_path):
+    # compare --soils clay must not drop loam's and sand's rows: their finished (here) or kept (beside the table)
+    # runs of the same settings are pooled, never run; a soil with neither is left out
+    from analysis.batch.compare_job import not_asked
+    from analysis.core.runner import plan_case
+    runs, kept = tmp_path / "runs", tmp_path / "comparison" / "runs"
+    ids = {s: plan_case({"soil": s, "preset": "test", "seed": 1})["id"] for s in ("clay", "loam", "sand")}
+    (runs / ids["loam"]).mkdir(parents=True)
+    (runs / ids["loam"] / "summary.json").write_text("{}")
+    (kept / ids["sand"]).mkdir(parents=True)
+    (kept / ids["sand"] / "holes.csv").write_text("run\n")
+    found = not_asked(["clay"], "test", [1], runs, kept)
+    assert [(f["soil"], c["id"]) for f, c in found] == [("loam", ids["loam"]), ("sand", ids["sand"])]
+    assert not_asked(["clay"], "test", [2], runs, kept) == []           # another packing: another run
+    assert [f["soil"] for f, _ in not_asked(["clay", "loam"], "test", [1], runs, kept)] == ["sand"]

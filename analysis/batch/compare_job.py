@@ -11,7 +11,9 @@ the final grains, state.npz; committed with the table). With `kept`, a table poo
 a run whose folder is not on this machine but is kept there is not run again; it is measured again from its
 kept state.npz, so a change of the metrology reaches it, or, kept without its grains, its holes are read as they
 were measured if this metrology measured them (else the run is left out and named). Without it, every run not
-on this machine is run.
+on this machine is run. The preset's table holds every soil with a run of its settings and seeds: `soils` names the
+ones to run, and the others' finished or kept runs are pooled as they are (never run), so remaking the table for one
+soil keeps the rest.
 """
 from __future__ import annotations
 
@@ -61,6 +63,9 @@ def run(preset: str, soils: list[str], seeds: list[int] | None = None, threads: 
     kept = out / "comparison" / "runs"
     elsewhere = {c["id"] for c in cases if kept_runs and not finished(runs_dir, c["id"])
                  and (kept / c["id"] / "holes.csv").exists()}
+    others = not_asked(soils, runs_preset, seeds, runs_dir, kept)
+    elsewhere |= {c["id"] for f, c in others if not finished(runs_dir, c["id"])}
+    pooled = [f"{f['soil']} seed {f['seed']}" for f, _ in others]
     batch = [{"id": c["id"], "tag": f"[{f['soil']} seed {f['seed']}]", "args": scene_args(f),
               "asleep": bool(c.get("awake_mm"))}
              for f, c in sorted(zip(fields, cases), key=lambda fc: seeds.index(fc[0]["seed"]))   # a packing at a time
@@ -74,7 +79,7 @@ def run(preset: str, soils: list[str], seeds: list[int] | None = None, threads: 
         failures = run_all(batch, parallel, threads, runs_dir, bed_dir, scheduler=scheduler, label=f"compare {preset}")
 
     tables, summaries, local, missing, levels = [], [], [], [], []
-    for c, f in zip(cases, fields):
+    for c, f in [*zip(cases, fields), *((c, f) for f, c in others)]:
         if finished(runs_dir, c["id"]):
             table, measured = measure.measure_and_write(runs_dir / c["id"])
             tables.append(table)
@@ -114,12 +119,23 @@ def run(preset: str, soils: list[str], seeds: list[int] | None = None, threads: 
     command = (f"./holes compare --preset {preset} --soils {','.join(soils)} --seeds {','.join(map(str, seeds))}"
                + " --no-run" * no_run + " --kept" * kept_runs)
     write(out, preset, holes, table, field, pd.DataFrame(summaries), criteria, runs_dir, local, seeds, command,
-          missing)
+          missing, pooled)
     if levels:
         rings.write_levels(out / "comparison" / preset / "levels", pd.concat(levels, ignore_index=True), command)
     for f in failures:
         say(f"FAILED: {f.splitlines()[0]}")
     return 1 if failures else 0
+
+
+def not_asked(soils: list[str], runs_preset: str, seeds: list[int], runs_dir: Path, kept: Path) -> list[tuple]:
+    """The (fields, case) of every soil not in `soils` whose run of the preset and a seed is finished on this machine
+    or kept beside the table: never run, but pooled, so a table remade for some soils keeps the others' rows. A run
+    made with other settings has another id and is not among them."""
+    from analysis.core.soil_config import SOILS
+    fields = [{"soil": soil, "preset": runs_preset, "seed": seed} for soil in SOILS if soil not in soils
+              for seed in seeds]
+    cases = [(f, plan_case(f)) for f in fields]
+    return [(f, c) for f, c in cases if finished(runs_dir, c["id"]) or (kept / c["id"] / "holes.csv").exists()]
 
 
 def keep(folder: Path, to: Path):
@@ -133,8 +149,9 @@ def keep(folder: Path, to: Path):
 
 
 def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, local, seeds, command: str,
-          missing: list[str]):
-    """The table, its plots and pictures; `missing` names the asked cases with no finished run (failed or not run)."""
+          missing: list[str], pooled: list[str] = ()):
+    """The table, its plots and pictures; `missing` names the asked cases with no finished run (failed or not run),
+    `pooled` the cases of soils not asked, read from their finished or kept runs."""
     note = stamp(command)
     folder = out / "comparison"
     own = folder / preset                    # this preset's tables, plots and pictures
@@ -159,6 +176,8 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     if resumed:
         cost += (f" Resumed from a checkpoint (another realisation of the same strip, results/scenes/README.md): "
                  f"{', '.join(resumed)}.")
+    if pooled:
+        cost += f" Soils not asked, from their finished or kept runs: {', '.join(pooled)}."
     if missing:
         cost += f" Asked for but not in this table (no finished run: failed or not run): {', '.join(missing)}."
     order = compare.ordering(table)
