@@ -121,6 +121,6 @@ def test_a_table_remade_for_one_soil_keeps_the_others_runs(tmp_path):
     (kept / ids["sand"]).mkdir(parents=True)
     (kept / ids["sand"] / "holes.csv").write_text("run\n")
     found = not_asked(["clay"], "test", [1], runs, kept)
-    assert [(f["soil"], c["id"]) for f, c in found] == [("loam", ids["loam"]), ("sand", ids["sand"])]
+    assert [(f["soil"], c["id"]) for c, f in found] == [("loam", ids["loam"]), ("sand", ids["sand"])]
     assert not_asked(["clay"], "test", [2], runs, kept) == []           # another packing: another run
-    assert [f["soil"] for f, _ in not_asked(["clay", "loam"], "test", [1], runs, kept)] == ["sand"]
+    assert [f["soil"] for _, f in not_asked(["clay", "loam"], "test", [1], runs, kept)] == ["sand"]

@@ -64,8 +64,8 @@ def run(preset: str, soils: list[str], seeds: list[int] | None = None, threads: 
     elsewhere = {c["id"] for c in cases if kept_runs and not finished(runs_dir, c["id"])
                  and (kept / c["id"] / "holes.csv").exists()}
     others = not_asked(soils, runs_preset, seeds, runs_dir, kept)
-    elsewhere |= {c["id"] for f, c in others if not finished(runs_dir, c["id"])}
-    pooled = [f"{f['soil']} seed {f['seed']}" for f, _ in others]
+    elsewhere |= {c["id"] for c, _ in others if not finished(runs_dir, c["id"])}
+    pooled = [f"{f['soil']} seed {f['seed']}" for _, f in others]
     batch = [{"id": c["id"], "tag": f"[{f['soil']} seed {f['seed']}]", "args": scene_args(f),
               "asleep": bool(c.get("awake_mm"))}
              for f, c in sorted(zip(fields, cases), key=lambda fc: seeds.index(fc[0]["seed"]))   # a packing at a time
@@ -79,7 +79,7 @@ def run(preset: str, soils: list[str], seeds: list[int] | None = None, threads: 
         failures = run_all(batch, parallel, threads, runs_dir, bed_dir, scheduler=scheduler, label=f"compare {preset}")
 
     tables, summaries, local, missing, levels = [], [], [], [], []
-    for c, f in [*zip(cases, fields), *((c, f) for f, c in others)]:
+    for c, f in [*zip(cases, fields), *others]:
         if finished(runs_dir, c["id"]):
             table, measured = measure.measure_and_write(runs_dir / c["id"])
             tables.append(table)
@@ -128,14 +128,14 @@ def run(preset: str, soils: list[str], seeds: list[int] | None = None, threads: 
 
 
 def not_asked(soils: list[str], runs_preset: str, seeds: list[int], runs_dir: Path, kept: Path) -> list[tuple]:
-    """The (fields, case) of every soil not in `soils` whose run of the preset and a seed is finished on this machine
+    """The (case, fields) of every soil not in `soils` whose run of the preset and a seed is finished on this machine
     or kept beside the table: never run, but pooled, so a table remade for some soils keeps the others' rows. A run
     made with other settings has another id and is not among them."""
     from analysis.core.soil_config import SOILS
     fields = [{"soil": soil, "preset": runs_preset, "seed": seed} for soil in SOILS if soil not in soils
               for seed in seeds]
-    cases = [(f, plan_case(f)) for f in fields]
-    return [(f, c) for f, c in cases if finished(runs_dir, c["id"]) or (kept / c["id"] / "holes.csv").exists()]
+    cases = [(plan_case(f), f) for f in fields]
+    return [(c, f) for c, f in cases if finished(runs_dir, c["id"]) or (kept / c["id"] / "holes.csv").exists()]
 
 
 def keep(folder: Path, to: Path):
@@ -149,7 +149,7 @@ def keep(folder: Path, to: Path):
 
 
 def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir, local, seeds, command: str,
-          missing: list[str], pooled: list[str] = ()):
+          missing: list[str], pooled: list[str]):
     """The table, its plots and pictures; `missing` names the asked cases with no finished run (failed or not run),
     `pooled` the cases of soils not asked, read from their finished or kept runs."""
     note = stamp(command)
