@@ -137,6 +137,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size-check", action="store_true",
                    help="with --bench: no calibration; the posterior mean's bench responses on the check packings in "
                         "the configured box and one grown by half (results/calibration/bench/<soil>-size.csv)")
+    p.add_argument("--cone-transfer", action="store_true",
+                   help="with --bench: no calibration; the posterior mean's cone index at the filter's grains and at the "
+                        "bench's (the main job's) on the packings of --seeds, --workers at a time "
+                        "(results/calibration/bench/<soil>-cone-transfer.csv)")
     p.add_argument("--probe", type=parameter_set, action="append", default=None, metavar="NAME=VALUE,...",
                    help="with --bench: no calibration; this parameter set's bench responses and cone index on the "
                         "calibration packing (every calibrated parameter named; repeat for more sets, run --workers "

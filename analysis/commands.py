@@ -49,8 +49,10 @@ def cmd_params(args) -> int:
 def cmd_calibrate(args) -> int:
     if args.bench:
         return cmd_calibrate_bench(args)
-    if args.cones or args.size_check or args.probe:
-        flag = "--cones" if args.cones else "--size-check" if args.size_check else "--probe"
+    checks = {"--cones": args.cones, "--size-check": args.size_check, "--probe": args.probe,
+              "--cone-transfer": args.cone_transfer}
+    if any(checks.values()):
+        flag = next(f for f, given in checks.items() if given)
         print(f"calibrate: {flag}: allowed only with --bench (a check of the bench calibration)", file=sys.stderr)
         return 2
     from analysis.soil import calibrate
@@ -154,14 +156,15 @@ def cmd_calibrate_bench(args) -> int:
     except ConfigError as e:
         print(f"calibrate: {e}", file=sys.stderr)
         return 2
-    if sum(map(bool, (args.size_check, args.cones, args.probe))) > 1:
-        print("calibrate: --size-check, --cones and --probe: allowed one of them", file=sys.stderr)
+    if sum(map(bool, (args.size_check, args.cones, args.probe, args.cone_transfer))) > 1:
+        print("calibrate: --size-check, --cones, --probe and --cone-transfer: allowed one of them", file=sys.stderr)
         return 2
-    if args.cones or args.size_check or args.probe:     # a check of the calibration or its prior, no calibration
+    if args.cones or args.size_check or args.probe or args.cone_transfer:   # a check of the calibration or its prior
         try:
             table = (bench.cones(args.soil, args.cones, cfg, workers=args.workers) if args.cones
                      else bench.probes(args.soil, args.probe, cfg) if args.probe
-                     else bench.size_check(args.soil, cfg).round(2))
+                     else bench.cone_transfer(args.soil, args.seeds, cfg, workers=args.workers).round(2)
+                     if args.cone_transfer else bench.size_check(args.soil, cfg).round(2))
         except ConfigError as e:
             print(f"calibrate: {e}", file=sys.stderr)
             return 2

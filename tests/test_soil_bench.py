@@ -352,6 +352,36 @@ def test_the_size_check_and_the_cones_are_one_at_a_time(capsys):
     assert "allowed one of them" in capsys.readouterr().err
 
 
+def test_the_cone_transfer_reads_the_posterior_cone_at_both_grain_sizes_on_each_packing(tmp_path, monkeypatch, capsys):
+    """`calibrate --bench --cone-transfer`: the posterior mean's cone on each packing at the filter's grains and at
+    the bench's, their ratio per packing in <soil>-cone-transfer.csv; cones already run are reused; without a
+    posterior, or without --bench, it is refused."""
+    from analysis.cli import main
+    cfg = bench.load_config(soil="loam")
+    post = {"normal_cohesion": 1e5, "friction_deg": 16.0, "new_contact_cohesion": 0.005, "rolling_friction": 0.15}
+    with pytest.raises(ConfigError, match="no posterior of loam"):
+        bench.cone_transfer("loam", [1], cfg, tmp_path)
+    (tmp_path / "loam-posterior.json").write_text(json.dumps({"mean": post}))
+    ran = []
+
+    def fake_cone(args, log):
+        res, seed = args[args.index("--resolution") + 1], int(args[args.index("--seed") + 1])
+        ran.append((res, seed))
+        assert float(args[args.index("--cohesion") + 1]) == pytest.approx(post["normal_cohesion"])
+        return {"cone_index_pa": (440e3 if res == cfg["cone_check"]["resolution"] else 400e3) + 1e3 * seed}
+    monkeypatch.setattr(bench, "cone_scene", fake_cone)
+    table = bench.cone_transfer("loam", [1, 2], cfg, tmp_path, workers=2)
+    assert sorted(ran) == sorted((r, s) for r in (cfg["resolution"], cfg["cone_check"]["resolution"]) for s in (1, 2))
+    assert table.ratio.to_numpy() == pytest.approx([401 / 441, 402 / 442])
+    assert table.r_filter_mm.iloc[0] > table.r_runs_mm.iloc[0] and table.runs_inside.all()
+    bench.cone_transfer("loam", [2], cfg, tmp_path)
+    assert len(ran) == 4
+    saved = pd.read_csv(tmp_path / "loam-cone-transfer.csv", comment="#")
+    assert list(saved.seed) == [2] and saved.cone_runs_kpa.iloc[0] == pytest.approx(402.0)
+    assert main(["calibrate", "--soil", "loam", "--cone-transfer"]) == 2
+    assert "--cone-transfer: allowed only with --bench" in capsys.readouterr().err
+
+
 def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_path, monkeypatch, capsys):
     """`calibrate --bench --probe`: each chosen set's bench responses and cone on the calibration packing in
     <soil>-probes.csv, earlier probes kept and none rerun; a set naming fewer than the calibrated parameters, or a

@@ -322,10 +322,7 @@ def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) ->
     cfg = cfg or load_config(soil=soil)
     if "size_check_mm" not in cfg:
         raise ConfigError(f"{CONFIG}: [bench] lacks size_check_mm (the grown box, mm)")
-    post_path = Path(out_dir) / f"{soil}-posterior.json"
-    if not post_path.exists():
-        raise ConfigError(f"{post_path}: no posterior of {soil}: run `./holes calibrate --soil {soil} --bench` first")
-    params = {k: float(v) for k, v in json.loads(post_path.read_text())["mean"].items()}
+    params = posterior_mean(soil, out_dir)
     seeds = [int(s) for s in cfg["check_seeds"]]
     boxes = {"configured": cfg, "grown": {**cfg, "size_mm": list(cfg["size_check_mm"])}}
     jobs = [(name, box, s) for name, box in boxes.items() for s in seeds]
@@ -338,6 +335,53 @@ def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) ->
     verdict = size_verdict(table)
     atomic_write(Path(out_dir) / f"{soil}-size.json", json.dumps(verdict.to_dict(orient="records"), indent=1))
     return verdict
+
+
+def posterior_mean(soil: str, out_dir: Path = BENCH_DIR) -> dict:
+    """The calibrated parameters' posterior mean from <out_dir>/<soil>-posterior.json."""
+    path = Path(out_dir) / f"{soil}-posterior.json"
+    if not path.exists():
+        raise ConfigError(f"{path}: no posterior of {soil}: run `./holes calibrate --soil {soil} --bench` first")
+    return {k: float(v) for k, v in json.loads(path.read_text())["mean"].items()}
+
+
+def cone_transfer(soil: str, seeds: list[int], cfg: dict | None = None, out_dir: Path = BENCH_DIR,
+                  workers: int = 2) -> pd.DataFrame:
+    """The posterior mean's cone index on the cone's bed at the filter's grains ([cone_check] resolution) and at
+    the bench's, the main job's ([bench] resolution), on each packing of `seeds`, `workers` cones at a time: what
+    the cone the filter fitted reads at the grains the runs use. Writes <soil>-cone-transfer.csv, one row per
+    packing with both cones and their ratio."""
+    from analysis.core.config import load_resolution
+    cfg = cfg or load_config(soil=soil)
+    params = posterior_mean(soil, out_dir)
+    grains = {"filter": cfg["cone_check"]["resolution"], "runs": cfg["resolution"]}
+    if grains["filter"] == grains["runs"]:
+        raise ConfigError(f"{CONFIG}: [cone_check] resolution is the bench's ({grains['runs']}): no transfer to measure")
+    jobs = [(s, which) for s in seeds for which in grains]
+    found: dict = {}
+    wall0 = time.time()
+
+    def one(job):
+        s, which = job
+        c = {**cfg, "cone_check": {**cfg["cone_check"], "resolution": grains[which]}}
+        found[job] = cone_check(soil, params, c, out_dir, s)["mean"]
+        elapsed = time.time() - wall0
+        say(f"cone transfer {soil}: {len(found)}/{len(jobs)} cones done, {elapsed:.0f} s, "
+            f"ETA {elapsed / len(found) * (len(jobs) - len(found)):.0f} s")
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        list(pool.map(one, jobs))
+    lo, hi = cone_range(soil, cfg)
+    radius = {w: load_resolution(r).radius * 1000 for w, r in grains.items()}
+    table = pd.DataFrame([{"seed": s, "r_filter_mm": radius["filter"], "cone_filter_kpa": found[(s, "filter")],
+                           "r_runs_mm": radius["runs"], "cone_runs_kpa": found[(s, "runs")],
+                           "ratio": found[(s, "runs")] / found[(s, "filter")],
+                           "runs_inside": bool(lo <= found[(s, "runs")] <= hi)} for s in seeds])
+    atomic_csv(table.round(4), Path(out_dir) / f"{soil}-cone-transfer.csv",
+               f"./holes calibrate --soil {soil} --bench --cone-transfer --seeds {','.join(map(str, seeds))}; "
+               f"{soil}'s posterior mean's cone index at the filter's grains and the runs'; Table 2 ± tolerance: "
+               f"{lo:g}-{hi:g} kPa")
+    return table
 
 
 def size_verdict(table: pd.DataFrame) -> pd.DataFrame:
