@@ -137,6 +137,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size-check", action="store_true",
                    help="with --bench: no calibration; the posterior mean's bench responses on the check packings in "
                         "the configured box and one grown by half (results/calibration/bench/<soil>-size.csv)")
+    p.add_argument("--check-deepest", action="store_true",
+                   help="with --bench: no calibration; the bench responses (and cone) of the set whose response planes "
+                        "lie deepest inside every target (results/calibration/bench/deepest.csv) on the check packings "
+                        "(results/calibration/bench/<soil>-deepest-check.csv, .json)")
     p.add_argument("--cone-transfer", action="store_true",
                    help="with --bench: no calibration; the posterior mean's cone index at the filter's grains and at the "
                         "bench's (the main job's) on the packings of --seeds, --workers at a time "

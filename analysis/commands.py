@@ -50,7 +50,7 @@ def cmd_calibrate(args) -> int:
     if args.bench:
         return cmd_calibrate_bench(args)
     checks = {"--cones": args.cones, "--size-check": args.size_check, "--probe": args.probe,
-              "--cone-transfer": args.cone_transfer}
+              "--cone-transfer": args.cone_transfer, "--check-deepest": args.check_deepest}
     if any(checks.values()):
         flag = next(f for f, given in checks.items() if given)
         print(f"calibrate: {flag}: allowed only with --bench (a check of the bench calibration)", file=sys.stderr)
@@ -156,12 +156,16 @@ def cmd_calibrate_bench(args) -> int:
     except ConfigError as e:
         print(f"calibrate: {e}", file=sys.stderr)
         return 2
-    if sum(map(bool, (args.size_check, args.cones, args.probe, args.cone_transfer))) > 1:
-        print("calibrate: --size-check, --cones, --probe and --cone-transfer: allowed one of them", file=sys.stderr)
+    asked = (args.size_check, args.cones, args.probe, args.cone_transfer, args.check_deepest)
+    if sum(map(bool, asked)) > 1:
+        print("calibrate: --size-check, --cones, --probe, --cone-transfer and --check-deepest: allowed one of them",
+              file=sys.stderr)
         return 2
-    if args.cones or args.size_check or args.probe or args.cone_transfer:   # a check of the calibration or its prior
+    if any(asked):                      # a check of the calibration or its prior, no calibration
+        import pandas as pd
         try:
             table = (bench.cones(args.soil, args.cones, cfg, workers=args.workers) if args.cones
+                     else pd.DataFrame(bench.check_deepest(args.soil, cfg)).T if args.check_deepest
                      else bench.probes(args.soil, args.probe, cfg) if args.probe
                      else bench.cone_transfer(args.soil, args.seeds, cfg, workers=args.workers).round(2)
                      if args.cone_transfer else bench.size_check(args.soil, cfg).round(2))

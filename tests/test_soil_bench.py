@@ -382,6 +382,43 @@ def test_the_cone_transfer_reads_the_posterior_cone_at_both_grain_sizes_on_each_
     assert "--cone-transfer: allowed only with --bench" in capsys.readouterr().err
 
 
+def test_the_deepest_point_lies_midway_in_made_up_planes_and_its_check_runs_it_on_every_check_packing(tmp_path,
+                                                                                                      monkeypatch):
+    """`deepest_point`: on made-up planes the set whose responses lie farthest inside their targets in units of each
+    plane's scatter; `calibrate --bench --check-deepest` runs that set
+    on every check packing into <soil>-deepest-check.csv, leaving the posterior's check alone."""
+    bounds = {"normal_cohesion": (5e4, 1.5e5), "friction_deg": (10.0, 20.0), "new_contact_cohesion": (0.0, 0.01),
+              "rolling_friction": (0.0, 0.3)}
+    planes = pd.DataFrame([
+        {"response": "c_kpa", "intercept": 0.0, "bond_kpa": 0.2, "friction_deg": 0.0, "disturbed_bond_kpa": 0.0,
+         "rolling_friction": 0.0, "resid_sd": 1.875},
+        {"response": "phi_deg", "intercept": 10.0, "bond_kpa": 0.0, "friction_deg": 1.0, "disturbed_bond_kpa": 0.0,
+         "rolling_friction": 0.0, "resid_sd": 1.0},
+        {"response": "collapse_deg", "intercept": 30.0, "bond_kpa": 0.0, "friction_deg": 0.0,
+         "disturbed_bond_kpa": 10.0, "rolling_friction": 0.0, "resid_sd": 1.0}])
+    targets = pd.DataFrame({"lo": [10.0, 24.0, 30.0], "hi": [25.0, 32.0, 38.0]}, index=["c_kpa", "phi_deg", "collapse_deg"])
+    d = bench.deepest_point(planes, targets, bounds)
+    assert d["normal_cohesion"] == pytest.approx(87_500, rel=1e-6) and d["friction_deg"] == pytest.approx(18.0)
+    assert d["c_kpa"] == pytest.approx(17.5) and d["phi_deg"] == pytest.approx(28.0)
+    assert d["margin_sd"] == pytest.approx(4.0) and d["new_contact_cohesion"] == pytest.approx(0.4 / 87.5)
+    assert d["collapse_deg"] == pytest.approx(34.0)
+    pd.DataFrame([{"soil": "loam", **d}]).to_csv(tmp_path / "deepest.csv", index=False)
+    cfg = {**bench.load_config(soil="loam"), "cone_target": False}
+    seen = []
+
+    def made_up(soil, seed, params, c, out_dir):
+        seen.append(seed)
+        assert params["normal_cohesion"] == pytest.approx(d["normal_cohesion"])
+        return {"id": f"s{seed}", "seed": seed, **params, "c_kpa": 17.0 + seed, "phi_deg": 28.0, "collapse_deg": 34.0}
+    monkeypatch.setattr(bench, "evaluate", made_up)
+    monkeypatch.setattr(bench, "cone_check", lambda *a, **k: {"mean": 450.0})
+    out = bench.check_deepest("loam", cfg, tmp_path)
+    assert sorted(seen) == sorted(cfg["check_seeds"]) and out["c_kpa"]["every_packing_inside"]
+    assert (tmp_path / "loam-deepest-check.csv").exists() and not (tmp_path / "loam-check.csv").exists()
+    with pytest.raises(ConfigError, match="no deepest point of sand"):
+        bench.check_deepest("sand", cfg, tmp_path)
+
+
 def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_path, monkeypatch, capsys):
     """`calibrate --bench --probe`: each chosen set's bench responses and cone on the calibration packing in
     <soil>-probes.csv, earlier probes kept and none rerun; a set naming fewer than the calibrated parameters, or a

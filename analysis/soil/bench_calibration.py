@@ -292,9 +292,9 @@ def weighted_correlation(table: pd.DataFrame, names: list[str], w) -> dict:
     return {a: {b: round(float(corr[i, j]), 3) for j, b in enumerate(names)} for i, a in enumerate(names)}
 
 
-def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> dict:
-    """The posterior mean's bench responses on each check packing against the targets' ranges; writes
-    results/calibration/bench/<soil>-check.csv. Returns per response: the mean over packings, their SD and
+def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_DIR, label: str = "check") -> dict:
+    """The posterior mean's (post["mean"]) bench responses on each check packing against the targets' ranges; writes
+    results/calibration/bench/<soil>-<label>.csv and .json. Returns per response: the mean over packings, their SD and
     whether every packing lies inside the target's range; with a [cone_check], the cone index too: on every check
     packing when the filter fitted it (`cone_target`), else on the cone's one packing (`cone_check`)."""
     cfg = cfg or load_config(soil=soil)
@@ -302,7 +302,7 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
     rows = evaluate_all(soil, [(int(s), params) for s in cfg["check_seeds"]], cfg, out_dir,
                         with_cone=bool(cfg.get("cone_target")))
     table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
-    atomic_csv(table, Path(out_dir) / f"{soil}-check.csv")
+    atomic_csv(table, Path(out_dir) / f"{soil}-{label}.csv")
     out = {}
     for r, (lo, hi) in target_ranges(soil, cfg).items():
         v = table[r].to_numpy(float)
@@ -310,8 +310,20 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
                   "target": [lo, hi], "every_packing_inside": bool(np.all((v >= lo) & (v <= hi)))}
     if "cone_check" in cfg and "cone_kpa" not in out:
         out["cone_kpa"] = cone_check(soil, params, cfg, out_dir)
-    atomic_write(Path(out_dir) / f"{soil}-check.json", json.dumps(out, indent=1))
+    atomic_write(Path(out_dir) / f"{soil}-{label}.json", json.dumps(out, indent=1))
     return out
+
+
+def check_deepest(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> dict:
+    """`check` of the soil's deepest point (<out_dir>/deepest.csv, `deepest_point`) on the check packings, written
+    as <soil>-deepest-check.csv and .json."""
+    path = Path(out_dir) / "deepest.csv"
+    table = pd.read_csv(path, comment="#").set_index("soil") if path.exists() else pd.DataFrame()
+    if soil not in table.index:
+        raise ConfigError(f"{path}: no deepest point of {soil}: its filter has not run (`./holes calibrate --soil "
+                          f"{soil} --bench`)")
+    cfg = cfg or load_config(soil=soil)
+    return check(soil, {"mean": {n: float(table.loc[soil, n]) for n in cfg["bounds"]}}, cfg, out_dir, "deepest-check")
 
 
 def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
@@ -677,13 +689,49 @@ def feasible_region(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict,
     return out
 
 
+def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict) -> dict:
+    """The parameter set in `bounds` whose planes lie deepest inside every target's range, the depth counted in
+    each plane's residual SD (the runs' own scatter with the plane's misfit): the largest t with every response
+    at least t SDs from both ends of its range (scipy's linear programme in the planes' terms; the share bond, share
+    × intact bond, bounded by the share's range). Where a check on several packings has the best chance of finding
+    every response inside; t < 0 when the planes meet the targets nowhere in `bounds` (the least miss).
+
+    >>> s = pd.DataFrame([{"response": "c_kpa", "intercept": 0.0, "bond_kpa": 0.1, "friction_deg": 0.0,
+    ...                    "disturbed_bond_kpa": 0.0, "rolling_friction": 0.0, "resid_sd": 1.0}])
+    >>> t = pd.DataFrame({"lo": [20.0], "hi": [30.0]}, index=["c_kpa"])
+    >>> d = deepest_point(s, t, {"normal_cohesion": (0, 1e6), "friction_deg": (10, 30),
+    ...                          "new_contact_cohesion": (0, 0.1), "rolling_friction": (0, 0.3)})
+    >>> round(d["margin_sd"], 3), round(d["normal_cohesion"] / 1e3), round(d["c_kpa"], 3)
+    (5.0, 250, 25.0)
+    """
+    from scipy.optimize import linprog
+    (b_lo, b_hi), (s_lo, s_hi) = bounds["normal_cohesion"], bounds["new_contact_cohesion"]
+    # variables: the four terms and t
+    box = [(b_lo / 1e3, b_hi / 1e3), tuple(bounds["friction_deg"]), (0.0, None), tuple(bounds["rolling_friction"]),
+           (None, None)]
+    rows, rhs = [[-s_hi, 0, 1, 0, 0], [s_lo, 0, -1, 0, 0]], [0.0, 0.0]
+    for r in surfaces.itertuples():
+        coef, (lo, hi) = [getattr(r, t) for t in SURFACE_TERMS], targets.loc[r.response, ["lo", "hi"]]
+        rows += [[-c for c in coef] + [r.resid_sd], [*coef, r.resid_sd]]
+        rhs += [r.intercept - lo, hi - r.intercept]
+    out = linprog([0, 0, 0, 0, -1], A_ub=rows, b_ub=rhs, bounds=box)
+    if not out.success:
+        raise RuntimeError(f"deepest_point: {out.message}")
+    bond, friction, disturbed, rolling, margin = out.x
+    point = {"margin_sd": float(margin), "normal_cohesion": float(bond * 1e3), "friction_deg": float(friction),
+             "new_contact_cohesion": float(disturbed / bond) if bond > 0 else 0.0, "rolling_friction": float(rolling)}
+    terms = np.array([bond, friction, disturbed, rolling])
+    return {**point, **{r.response: float(r.intercept + terms @ np.array([getattr(r, t) for t in SURFACE_TERMS]))
+                        for r in surfaces.itertuples()}}
+
+
 def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> list[Path]:
     """Every calibrated soil's response surfaces over its filter's and check's evaluations (surfaces.csv) and
     where they meet all its targets (the cone's too, where the filter fitted it) inside the common prior
     (feasible.csv)."""
     bounds = bounds or load_config()["bounds"]
     from analysis.core.soil_config import SOILS
-    rows, regions = [], []
+    rows, regions, deepest = [], [], []
     for soil in SOILS:
         tables = [Path(out_dir) / f"{soil}{part}.csv" for part in ("", "-check")]
         if not tables[0].exists():
@@ -697,10 +745,14 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
         region = feasible_region(surf, targets, bounds)
         regions += [{"soil": soil, "parameter": k, "p05": v[0], "p50": v[1], "p95": v[2], "prior_share": region["share"]}
                     for k, v in region.items() if k != "share"]
+        deepest.append({"soil": soil, **deepest_point(surf, targets, load_config(soil=soil)["bounds"])})
     if not rows:
         return []
-    paths = [Path(out_dir) / "surfaces.csv", Path(out_dir) / "feasible.csv"]
+    paths = [Path(out_dir) / "surfaces.csv", Path(out_dir) / "feasible.csv", Path(out_dir) / "deepest.csv"]
     note = "./holes calibrate --soil S --bench (its report)"
+    atomic_csv(pd.DataFrame(deepest).round(5), paths[2],
+               f"{note}; in the soil's own prior, the parameter set whose planes lie deepest inside every target, "
+               "margin_sd its depth in the planes' residual SDs, and the responses the planes predict there")
     atomic_csv(pd.concat(rows)[["soil", "response", "intercept", *SURFACE_TERMS, "r2", "resid_sd", "n"]].round(5),
                paths[0], f"{note}; each response a plane in the terms over the soil's filter and check evaluations")
     atomic_csv(pd.DataFrame(regions).round(5), paths[1],
