@@ -46,14 +46,20 @@ def cmd_params(args) -> int:
     return 0
 
 
+BENCH_CHECKS = ("--size-check", "--cones", "--probe", "--cone-transfer", "--check-deepest")
+
+
+def bench_checks_asked(args) -> list[str]:
+    """The `calibrate --bench` checks (each a check of the calibration or its prior, no calibration) given."""
+    return [flag for flag in BENCH_CHECKS if getattr(args, flag[2:].replace("-", "_"))]
+
+
 def cmd_calibrate(args) -> int:
     if args.bench:
         return cmd_calibrate_bench(args)
-    checks = {"--cones": args.cones, "--size-check": args.size_check, "--probe": args.probe,
-              "--cone-transfer": args.cone_transfer, "--check-deepest": args.check_deepest}
-    if any(checks.values()):
-        flag = next(f for f, given in checks.items() if given)
-        print(f"calibrate: {flag}: allowed only with --bench (a check of the bench calibration)", file=sys.stderr)
+    if bench_checks_asked(args):
+        print(f"calibrate: {bench_checks_asked(args)[0]}: allowed only with --bench (a check of the bench calibration)",
+              file=sys.stderr)
         return 2
     from analysis.soil import calibrate
     from analysis.core.bed_spec import check_size
@@ -156,19 +162,19 @@ def cmd_calibrate_bench(args) -> int:
     except ConfigError as e:
         print(f"calibrate: {e}", file=sys.stderr)
         return 2
-    asked = (args.size_check, args.cones, args.probe, args.cone_transfer, args.check_deepest)
-    if sum(map(bool, asked)) > 1:
-        print("calibrate: --size-check, --cones, --probe, --cone-transfer and --check-deepest: allowed one of them",
-              file=sys.stderr)
+    asked = bench_checks_asked(args)
+    if len(asked) > 1:
+        print(f"calibrate: {', '.join(BENCH_CHECKS[:-1])} and {BENCH_CHECKS[-1]}: allowed one of them", file=sys.stderr)
         return 2
-    if any(asked):                      # a check of the calibration or its prior, no calibration
+    if asked:
         import pandas as pd
+        checks = {"--size-check": lambda: bench.size_check(args.soil, cfg).round(2),
+                  "--cones": lambda: bench.cones(args.soil, args.cones, cfg, workers=args.workers),
+                  "--probe": lambda: bench.probes(args.soil, args.probe, cfg),
+                  "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds, cfg, workers=args.workers).round(2),
+                  "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg)).T}
         try:
-            table = (bench.cones(args.soil, args.cones, cfg, workers=args.workers) if args.cones
-                     else pd.DataFrame(bench.check_deepest(args.soil, cfg)).T if args.check_deepest
-                     else bench.probes(args.soil, args.probe, cfg) if args.probe
-                     else bench.cone_transfer(args.soil, args.seeds, cfg, workers=args.workers).round(2)
-                     if args.cone_transfer else bench.size_check(args.soil, cfg).round(2))
+            table = checks[asked[0]]()
         except ConfigError as e:
             print(f"calibrate: {e}", file=sys.stderr)
             return 2

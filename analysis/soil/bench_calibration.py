@@ -201,23 +201,32 @@ def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out
     """Every (seed, parameters) evaluation, `cfg["workers"]` at a time, with progress and an ETA; `cfgs`: each
     evaluation's own bench settings in place of cfg (the size check's two boxes); `with_cone`: each tested one's
     cone index too, on the cone's bed of the same packing seed (`cone_check`)."""
-    rows: list = [None] * len(seeds_params)
-    wall0 = time.time()
-
     def one(i):
         seed, params = seeds_params[i]
         row = evaluate(soil, seed, params, cfgs[i] if cfgs else cfg, out_dir)
         if with_cone and not row.get("failed"):
             row = {**row, "cone_kpa": cone_check(soil, params, cfg, out_dir, seed)["mean"]}
-        rows[i] = row
-        done = sum(r is not None for r in rows)
-        elapsed = time.time() - wall0
-        say(f"calibrate {soil}: {done}/{len(seeds_params)} evaluations done, {elapsed:.0f} s, "
-            f"ETA {elapsed / done * (len(seeds_params) - done):.0f} s")
+        return row
 
-    with ThreadPoolExecutor(max_workers=int(cfg["workers"])) as pool:
-        list(pool.map(one, range(len(seeds_params))))
-    return rows
+    return in_parallel(one, list(range(len(seeds_params))), int(cfg["workers"]), f"calibrate {soil}", "evaluations")
+
+
+def in_parallel(fn, jobs: list, workers: int, label: str, unit: str) -> list:
+    """fn of each job, `workers` at a time (threads, each starting its own YADE process), in the jobs' order;
+    after each one says how many are done, the time so far and an ETA."""
+    done: list = []
+    wall0 = time.time()
+
+    def one(job):
+        out = fn(job)
+        done.append(job)
+        elapsed = time.time() - wall0
+        say(f"{label}: {len(done)}/{len(jobs)} {unit} done, {elapsed:.0f} s, "
+            f"ETA {elapsed / len(done) * (len(jobs) - len(done)):.0f} s")
+        return out
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(one, jobs))
 
 
 def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> dict:
@@ -370,19 +379,13 @@ def cone_transfer(soil: str, seeds: list[int], cfg: dict | None = None, out_dir:
     if grains["filter"] == grains["runs"]:
         raise ConfigError(f"{CONFIG}: [cone_check] resolution is the bench's ({grains['runs']}): no transfer to measure")
     jobs = [(s, which) for s in seeds for which in grains]
-    found: dict = {}
-    wall0 = time.time()
 
     def one(job):
         s, which = job
-        c = {**cfg, "cone_check": {**cfg["cone_check"], "resolution": grains[which]}}
-        found[job] = cone_check(soil, params, c, out_dir, s)["mean"]
-        elapsed = time.time() - wall0
-        say(f"cone transfer {soil}: {len(found)}/{len(jobs)} cones done, {elapsed:.0f} s, "
-            f"ETA {elapsed / len(found) * (len(jobs) - len(found)):.0f} s")
+        return cone_check(soil, params, {**cfg, "cone_check": {**cfg["cone_check"], "resolution": grains[which]}},
+                          out_dir, s)["mean"]
 
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        list(pool.map(one, jobs))
+    found = dict(zip(jobs, in_parallel(one, jobs, workers, f"cone transfer {soil}", "cones")))
     lo, hi = cone_range(soil, cfg)
     radius = {w: load_resolution(r).radius * 1000 for w, r in grains.items()}
     table = pd.DataFrame([{"seed": s, "r_filter_mm": radius["filter"], "cone_filter_kpa": found[(s, "filter")],
@@ -709,10 +712,12 @@ def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict) -
     # variables: the four terms and t
     box = [(b_lo / 1e3, b_hi / 1e3), tuple(bounds["friction_deg"]), (0.0, None), tuple(bounds["rolling_friction"]),
            (None, None)]
+    planes = surfaces.set_index("response")
+    coefs = planes[list(SURFACE_TERMS)].to_numpy(float)
     rows, rhs = [[-s_hi, 0, 1, 0, 0], [s_lo, 0, -1, 0, 0]], [0.0, 0.0]
-    for r in surfaces.itertuples():
-        coef, (lo, hi) = [getattr(r, t) for t in SURFACE_TERMS], targets.loc[r.response, ["lo", "hi"]]
-        rows += [[-c for c in coef] + [r.resid_sd], [*coef, r.resid_sd]]
+    for r, coef in zip(planes.itertuples(), coefs):
+        lo, hi = targets.loc[r.Index, ["lo", "hi"]]
+        rows += [[*-coef, r.resid_sd], [*coef, r.resid_sd]]
         rhs += [r.intercept - lo, hi - r.intercept]
     out = linprog([0, 0, 0, 0, -1], A_ub=rows, b_ub=rhs, bounds=box)
     if not out.success:
@@ -720,9 +725,8 @@ def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict) -
     bond, friction, disturbed, rolling, margin = out.x
     point = {"margin_sd": float(margin), "normal_cohesion": float(bond * 1e3), "friction_deg": float(friction),
              "new_contact_cohesion": float(disturbed / bond) if bond > 0 else 0.0, "rolling_friction": float(rolling)}
-    terms = np.array([bond, friction, disturbed, rolling])
-    return {**point, **{r.response: float(r.intercept + terms @ np.array([getattr(r, t) for t in SURFACE_TERMS]))
-                        for r in surfaces.itertuples()}}
+    predicted = planes["intercept"].to_numpy(float) + coefs @ np.array([bond, friction, disturbed, rolling])
+    return {**point, **dict(zip(planes.index, map(float, predicted)))}
 
 
 def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> list[Path]:
@@ -739,13 +743,13 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
         table = pd.concat([pd.read_csv(t, comment="#") for t in tables if t.exists()])
         surf = response_surfaces(table).assign(soil=soil)
         rows.append(surf)
-        targets = load_targets(soil)
+        targets, own = load_targets(soil), load_config(soil=soil)
         if "cone_kpa" in set(surf.response):
-            targets.loc["cone_kpa", ["lo", "hi"]] = cone_range(soil, load_config(soil=soil))
+            targets.loc["cone_kpa", ["lo", "hi"]] = cone_range(soil, own)
         region = feasible_region(surf, targets, bounds)
         regions += [{"soil": soil, "parameter": k, "p05": v[0], "p50": v[1], "p95": v[2], "prior_share": region["share"]}
                     for k, v in region.items() if k != "share"]
-        deepest.append({"soil": soil, **deepest_point(surf, targets, load_config(soil=soil)["bounds"])})
+        deepest.append({"soil": soil, **deepest_point(surf, targets, own["bounds"])})
     if not rows:
         return []
     paths = [Path(out_dir) / "surfaces.csv", Path(out_dir) / "feasible.csv", Path(out_dir) / "deepest.csv"]
