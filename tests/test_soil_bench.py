@@ -12,7 +12,7 @@ import pytest
 
 from analysis.core.schema import ConfigError
 from analysis.soil import bench_calibration as bench
-from analysis.soil.bayes import HOLE_METRICS, calibrate
+from analysis.soil.bayes import HOLE_METRICS, calibrate, sigma_floor
 
 
 def made_up_bench(p: dict) -> dict:
@@ -165,6 +165,15 @@ def test_a_test_the_scene_stopped_is_kept_as_failed_and_weighs_nothing(tmp_path,
     assert weights[np.asarray([p["friction_deg"] < 15 for p in seen[-12:]])].sum() < 1e-6
 
 
+@pytest.mark.parametrize("line, match", [("phi_deg = 0.0", "packing_scatter.phi_deg"),
+                                         ("h1 = 1.0", "packing_scatter.h1")])
+def test_a_packing_scatter_is_an_sd_of_a_bench_response(tmp_path, line, match):
+    text = bench.CONFIG.read_text().replace("phi_deg = 1.8", line)
+    (tmp_path / "b.toml").write_text(text)
+    with pytest.raises(ConfigError, match=match):
+        bench.load_config(tmp_path / "b.toml")
+
+
 def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp_path, monkeypatch):
     """Through a made-up bench whose packings scatter: the filter's samples, the posterior with intervals and
     correlations, and the check of the posterior mean against the targets' ranges on each check packing."""
@@ -191,7 +200,10 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
     for name, (lo, hi) in post["interval"].items():
         assert cfg["bounds"][name][0] <= lo <= hi <= cfg["bounds"][name][1]
     assert post["correlation"]["friction_deg"]["friction_deg"] == pytest.approx(1.0)
-    assert json.loads((tmp_path / "clay-posterior.json").read_text())["mean"] == post["mean"]
+    written = json.loads((tmp_path / "clay-posterior.json").read_text())
+    assert written["mean"] == post["mean"] and written["packing_scatter"] == cfg["packing_scatter"]
+    floor = sigma_floor(bench.target_ranges("clay", cfg), cfg["packing_scatter"])
+    assert len(written["likelihood_sigma"]) == 2 and min(written["likelihood_sigma"]) >= floor * (1 - 1e-9)
     result = bench.check("clay", post, cfg, tmp_path)
     assert sorted(set(calls[20:])) == sorted(cfg["check_seeds"])
     for r in bench.RESPONSES:

@@ -9,6 +9,13 @@ sequence of "steps", one per response, each in units of its target's width: the 
 under one covariance for every step (`scale_cov_with_max`). A miss so weighs by how many of its own ranges it is (a
 response whose target is small but wide, sand's c of 0-12 kPa, weighs no more than a narrow one); the posterior
 after the last step holds them all.
+
+The filter picks its likelihood's spread each iteration so that a set share of the samples keeps weight
+(`seed_ess`); as the samples close in, that spread shrinks below what one run can resolve, and a sample whose one
+packing happened to read inside takes all the weight. `scatter` ({response: SD over packings, in the response's
+units}) puts a floor under it: the likelihood's SD never falls below the runs' packing scatter (the RMS over the
+responses, each in units of its target's range), so two samples that differ by less than a packing's worth share
+the weight.
 """
 from __future__ import annotations
 
@@ -32,14 +39,32 @@ def in_ranges(value, target) -> float:
     return 1.0 + (value - lo) / (hi - lo) if np.isfinite(value) else 1000.0
 
 
+def sigma_floor(targets: dict, scatter: dict) -> float:
+    """GrainLearning's lowest sigma for targets {response: (lo, hi)} whose runs scatter by `scatter` {response: SD}
+    over packings: its likelihood's SD (sqrt(sigma) times the largest step, `scale_cov_with_max`) is then the RMS of
+    the scatters in units of their ranges.
+
+    >>> round(sigma_floor({"c": (0.0, 10.0), "phi": (20.0, 30.0)}, {"c": 2.5, "phi": 2.5}), 6)  # SD 0.25, step 2.5
+    0.01
+    """
+    missing = sorted(set(targets) - set(scatter))
+    bad = sorted(r for r in targets if r in scatter and not float(scatter[r]) > 0)
+    if missing or bad:
+        raise ValueError(f"calibrate: scatter of {(missing or bad)[0]}: allowed an SD above 0 for every target "
+                         f"({', '.join(targets)})")
+    sd = np.sqrt(np.mean([(float(scatter[r]) / (float(hi) - float(lo))) ** 2 for r, (lo, hi) in targets.items()]))
+    return float((sd / (MIDDLE + len(targets) - 1)) ** 2)
+
+
 def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations: int = 4,
-              seed_ess: float = 0.3, seed: int = 0, batch: bool = False) -> dict:
+              seed_ess: float = 0.3, seed: int = 0, batch: bool = False, scatter: dict | None = None) -> dict:
     """Fit `bounds`' parameters ({name: (lo, hi)}) so that model(params dict) -> {response: value} meets `targets`
     ({response: (lo, hi)}, each its stated uncertainty). Returns the posterior's mean, its coefficient of variation
     and the most probable sample, per parameter, and the ensemble of the last iteration (its parameters and
     weights). `seed`: the resampling's random state (the first samples are an unscrambled Halton sequence), so a
     calibration repeats itself. `batch`: the model takes an iteration's list of parameter dicts at once and returns
-    their responses in order (so it can run them side by side)."""
+    their responses in order (so it can run them side by side). `scatter`: each response's SD over packings, the
+    likelihood's floor (`sigma_floor`); None leaves the spread to the effective sample size alone."""
     from grainlearning import BayesianCalibration, DynamicSystem
     names, responses = list(bounds), list(targets)
     holes = sorted(set(responses) & HOLE_METRICS)
@@ -50,6 +75,7 @@ def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations:
     if bad or len(responses) < 2:
         raise ValueError(f"calibrate: target {bad[0] if bad else ''}: allowed two targets or more, each a range "
                          "(lo, hi) with lo < hi (its width scales its misses)")
+    floor = {} if scatter is None else {"sigma_lower_bound": sigma_floor(targets, scatter)}
     step = np.arange(len(responses))
     obs = (MIDDLE + step)[None, :]
 
@@ -64,7 +90,7 @@ def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations:
         "system": {"system_type": DynamicSystem, "param_names": names,
                    "param_min": [float(bounds[n][0]) for n in names], "param_max": [float(bounds[n][1]) for n in names],
                    "num_samples": samples, "obs_data": obs, "obs_names": ["response"],
-                   "ctrl_data": step, "inv_obs_weight": [1.0], "sim_name": "soil"},
+                   "ctrl_data": step, "inv_obs_weight": [1.0], "sim_name": "soil", **floor},
         "inference": {"Bayes_filter": {"ess_target": seed_ess, "scale_cov_with_max": True},
                       "sampling": {"max_num_components": 2, "random_state": seed}},
     })
@@ -77,6 +103,7 @@ def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations:
     mean = calib.system.estimated_params[-1]
     cv = calib.system.estimated_params_cv[-1]
     best = calib.get_most_prob_params()
+    sigmas = [float(x) for x in calib.inference.sigma_list]
     return {"names": names, "mean": dict(zip(names, map(float, mean))), "cv": dict(zip(names, map(float, cv))),
             "most_probable": dict(zip(names, map(float, best))), "samples": calib.system.param_data,
-            "weights": calib.inference.posterior}
+            "weights": calib.inference.posterior, "sigma": sigmas}

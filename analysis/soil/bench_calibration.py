@@ -94,7 +94,13 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
             raise ConfigError(f"{path}: [cone_check] lacks {', '.join(sorted(need_cone - set(cone)))}")
         if not 0 < float(cone["tolerance"]) < 1:
             raise ConfigError(f"{path}: cone_check.tolerance = {cone['tolerance']}: allowed (0, 1), a share of Table 2")
+    scatter = cfg.get("packing_scatter", {})
+    bad = sorted(k for k, v in scatter.items() if k not in (*RESPONSES, "cone_kpa") or not float(v) > 0)
+    if bad:
+        raise ConfigError(f"{path}: packing_scatter.{bad[0]} = {scatter[bad[0]]}: allowed an SD above 0 for each of "
+                          f"{', '.join((*RESPONSES, 'cone_kpa'))}")
     return {**bench, "bounds": {k: tuple(map(float, v)) for k, v in bounds.items()},
+            **({"packing_scatter": {k: float(v) for k, v in scatter.items()}} if scatter else {}),
             "fixed": {k: float(v) for k, v in fixed.items()}, **({"cone_check": dict(cone)} if cone else {})}
 
 
@@ -254,13 +260,15 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
 
     ranges = target_ranges(soil, cfg)
     post = bayes(model_batch, ranges, cfg["bounds"], samples=int(cfg["samples"]), iterations=int(cfg["iterations"]),
-                 batch=True)
+                 batch=True, scatter=cfg.get("packing_scatter"))
     table = finished()
     table["weight_last"] = np.nan
     last = table["iteration"] == table["iteration"].max()
     table.loc[last, "weight_last"] = np.asarray(post["weights"])[-1] if np.ndim(post["weights"]) > 1 else post["weights"]
     summary = {k: post[k] for k in ("names", "mean", "cv", "most_probable")}
     summary["fixed"] = dict(cfg.get("fixed", {}))
+    summary["likelihood_sigma"] = post["sigma"]
+    summary["packing_scatter"] = dict(cfg.get("packing_scatter", {}))
     summary["prior"] = {k: list(v) for k, v in cfg["bounds"].items()}
     summary["interval"] = weighted_intervals(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
     summary["correlation"] = weighted_correlation(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
