@@ -209,6 +209,9 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
     for r in bench.RESPONSES:
         assert math.isfinite(result[r]["mean"]) and result[r]["sd"] > 0
         assert isinstance(result[r]["every_packing_inside"], bool)
+        lo, hi = result[r]["target"]
+        assert result[r]["mean_inside"] == (lo <= result[r]["mean"] <= hi)
+        assert result[r]["mean_inside"] or not result[r]["every_packing_inside"]
     # the cone beside Table 2 (450 kPa for clay), once: a second check reuses the kept summary
     cone = result["cone_kpa"]
     assert cone["target"] == pytest.approx([450 * 0.85, 450 * 1.15]) and cone["mean"] > 0
@@ -227,6 +230,7 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
     assert config.read_text().count("[bench_posterior]") == 1 and load_soil(config) == load_soil("clay")
     assert table["friction_deg"]["mean"] == pytest.approx(post["mean"]["friction_deg"], rel=1e-3)
     assert table["status"].startswith(("within every target", "outside its target"))
+    assert "; the packings' mean " in table["status"]
 
 
 @pytest.mark.parametrize("scene", ["collapse", "cone"])
