@@ -313,7 +313,7 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
     """The posterior mean's (post["mean"]) bench responses on each check packing against the targets' ranges; writes
     results/calibration/bench/<soil>-<label>.csv and .json. Returns per response: the mean over packings, their SD and
     whether every packing lies inside the target's range (strict: with packings as scattered as these runs' a set
-    centred in every range passes on three packings a fifth to a quarter of the time, `every_packing_chance`) and
+    centred in every range passes on three packings about a fifth of the time, `every_packing_chance`) and
     whether their mean does; with a [cone_check], the cone index too: on every check
     packing when the filter fitted it (`cone_target`), else on the cone's one packing (`cone_check`)."""
     cfg = cfg or load_config(soil=soil)
