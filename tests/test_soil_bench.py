@@ -5,6 +5,7 @@ answer the contact parameters the way a granular soil does."""
 import json
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -528,3 +529,31 @@ def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has
         (tmp_path / "b.toml").write_text(text.replace(old, new))
         with pytest.raises(ConfigError, match=re.escape(match)):
             bench.load_config(tmp_path / "b.toml", soil="clay")
+
+
+def test_the_collapse_column_takes_its_own_size_and_names_the_evaluation_only_when_set(tmp_path, monkeypatch):
+    """[bench] collapse_size_mm sizes the collapse column apart from the shear box; left out, the column is the box
+    and the evaluations keep their ids; a bad size is refused."""
+    cfg = bench.load_config()
+    params = {"normal_cohesion": 30e3, "friction_deg": 25.0, "new_contact_cohesion": 0.5, "rolling_friction": 0.1}
+    tall = {**cfg, "collapse_size_mm": [225, 225, 150]}
+    assert bench.evaluation_id("clay", 1, params, {**cfg, "collapse_size_mm": list(cfg["size_mm"])}) == \
+        bench.evaluation_id("clay", 1, params, cfg) != bench.evaluation_id("clay", 1, params, tall)
+    sizes = {}
+
+    def fake(cmd, sink):
+        scene = Path(cmd[1]).stem
+        sizes[scene] = cmd[cmd.index("--size") + 1]
+        out = {"shear": {"c_kpa": 1.0, "phi_deg": 30.0}, "collapse": {"runout_mm": 100.0}}[scene]
+        if scene == "collapse":
+            heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
+            folder = Path(cmd[cmd.index("--out") + 1])
+            (folder / "column.json").write_text(json.dumps({"profile_mm": heap}))
+        return 0, json.dumps(out)
+    monkeypatch.setattr(bench, "run_process", fake)
+    row = bench.evaluate("clay", 1, params, tall, tmp_path)
+    assert sizes == {"shear": "150,150,100", "collapse": "225,225,150"} and row["collapse_deg"] == pytest.approx(45, abs=1)
+    text = bench.CONFIG.read_text().replace("[bench]\n", "[bench]\ncollapse_size_mm = [225, 0, 150]\n", 1)
+    (tmp_path / "b.toml").write_text(text)
+    with pytest.raises(ConfigError, match="collapse_size_mm"):
+        bench.load_config(tmp_path / "b.toml")

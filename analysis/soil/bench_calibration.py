@@ -69,6 +69,10 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
         for name, rng in ranges.items():
             if len(rng) != 2 or not rng[0] < rng[1]:
                 raise ConfigError(f"{path}: {where}.{name} = {rng}: allowed [lo, hi] with lo < hi")
+    column = bench.get("collapse_size_mm")
+    if column is not None and (len(column) != 3 or any(float(v) <= 0 for v in column)):
+        raise ConfigError(f"{path}: bench.collapse_size_mm = {column}: allowed three lengths above 0 mm (the collapse "
+                          "column's; left out, the shear box's size_mm)")
     grown = bench.get("size_check_mm")
     if grown is not None and (len(grown) != 3 or any(float(g) <= float(b) for g, b in zip(grown, bench["size_mm"]))):
         raise ConfigError(f"{path}: bench.size_check_mm = {grown}: allowed three lengths, each above size_mm's "
@@ -122,6 +126,11 @@ def load_targets(soil: str, path: Path = TARGETS) -> pd.DataFrame:
     return t
 
 
+def collapse_size(cfg: dict) -> list:
+    """The collapse column's size (mm): [bench] collapse_size_mm where set, else the shear box's size_mm."""
+    return list(cfg.get("collapse_size_mm", cfg["size_mm"]))
+
+
 def evaluation_id(soil: str, seed: int, params: dict, cfg: dict) -> str:
     """One evaluation's folder name: the soil, the packing and a hash of the parameters (4 significant digits)
     and the bench's settings."""
@@ -130,6 +139,8 @@ def evaluation_id(soil: str, seed: int, params: dict, cfg: dict) -> str:
            "speed": float(cfg["speed_m_s"]), "scenes": SCENES_VERSION}
     if cfg.get("fixed"):                    # named only when there is one: the earlier evaluations keep their ids
         key["fixed"] = dict(sorted(cfg["fixed"].items()))
+    if list(collapse_size(cfg)) != list(cfg["size_mm"]):     # likewise a collapse column of its own
+        key["collapse_size_mm"] = list(collapse_size(cfg))
     return f"s{seed}-{hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]}"
 
 
@@ -154,14 +165,15 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
         row = json.loads(done.read_text())
         return row if row.get("failed") else with_collapse_angle(row, folder)
     folder.mkdir(parents=True, exist_ok=True)
-    common = ["--soil", soil, "--resolution", cfg["resolution"], "--size", ",".join(map(str, cfg["size_mm"])),
-              "--seed", str(seed), "--threads", "1", "--out", str(folder)]
+    common = ["--soil", soil, "--resolution", cfg["resolution"], "--seed", str(seed), "--threads", "1",
+              "--out", str(folder)]
     for item in overrides(params, cfg.get("fixed")):
         common += ["--test-set", item]
     wall0 = time.time()
     results = {}
-    shear = ["--stress", ",".join(map(str, cfg["stresses_kpa"])), "--speed", str(cfg["speed_m_s"])]
-    for scene, extra in (("shear", shear), ("collapse", [])):
+    shear = ["--size", ",".join(map(str, cfg["size_mm"])), "--stress", ",".join(map(str, cfg["stresses_kpa"])),
+             "--speed", str(cfg["speed_m_s"])]
+    for scene, extra in (("shear", shear), ("collapse", ["--size", ",".join(map(str, collapse_size(cfg)))])):
         with open(folder / f"{scene}.log", "w") as log:
             code, out = run_process([sys.executable, str(ROOT / f"scripts/{scene}.py"), *common, *extra],
                                     lambda line: log.write(line))
@@ -374,7 +386,10 @@ def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) ->
         raise ConfigError(f"{CONFIG}: [bench] lacks size_check_mm (the grown box, mm)")
     params = posterior_mean(soil, out_dir)
     seeds = [int(s) for s in cfg["check_seeds"]]
-    boxes = {"configured": cfg, "grown": {**cfg, "size_mm": list(cfg["size_check_mm"])}}
+    grow = [float(g) / float(b) for g, b in zip(cfg["size_check_mm"], cfg["size_mm"])]
+    boxes = {"configured": cfg, "grown": {**cfg, "size_mm": list(cfg["size_check_mm"]),
+                                          **({"collapse_size_mm": [round(v * k) for v, k in zip(collapse_size(cfg), grow)]}
+                                             if "collapse_size_mm" in cfg else {})}}
     jobs = [(name, box, s) for name, box in boxes.items() for s in seeds]
     rows = evaluate_all(soil, [(s, params) for _, _, s in jobs], cfg, out_dir, cfgs=[box for _, box, _ in jobs])
     table = pd.DataFrame([{"box": name, "size_mm": "x".join(f"{v:g}" for v in box["size_mm"]), **row}
