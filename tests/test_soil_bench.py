@@ -534,7 +534,7 @@ def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has
 def test_the_collapse_column_takes_its_own_size_and_names_the_evaluation_only_when_set(tmp_path, monkeypatch):
     """[bench] collapse_size_mm sizes the collapse column apart from the shear box; left out, the column is the box
     and the evaluations keep their ids; a bad size is refused."""
-    cfg = bench.load_config()
+    cfg = {k: v for k, v in bench.load_config().items() if k != "collapse_size_mm"}
     params = {"normal_cohesion": 30e3, "friction_deg": 25.0, "new_contact_cohesion": 0.5, "rolling_friction": 0.1}
     tall = {**cfg, "collapse_size_mm": [225, 225, 150]}
     assert bench.evaluation_id("clay", 1, params, {**cfg, "collapse_size_mm": list(cfg["size_mm"])}) == \
@@ -553,7 +553,7 @@ def test_the_collapse_column_takes_its_own_size_and_names_the_evaluation_only_wh
     monkeypatch.setattr(bench, "run_process", fake)
     row = bench.evaluate("clay", 1, params, tall, tmp_path)
     assert sizes == {"shear": "150,150,100", "collapse": "225,225,150"} and row["collapse_deg"] == pytest.approx(45, abs=1)
-    text = bench.CONFIG.read_text().replace("collapse_size_mm = [150, 150, 100]", "collapse_size_mm = [225, 0, 150]", 1)
+    text = bench.CONFIG.read_text().replace("collapse_size_mm = [225, 225, 150]", "collapse_size_mm = [225, 0, 150]", 1)
     assert "[225, 0, 150]" in text
     (tmp_path / "b.toml").write_text(text)
     with pytest.raises(ConfigError, match="collapse_size_mm"):
