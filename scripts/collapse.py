@@ -67,6 +67,11 @@ def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None
     while O.time < MAX_TIME:
         O.run(1000, True)
         v = np.array([O.bodies[i].state.vel.norm() for i in grains])
+        gone = sum(1 for i in grains if O.bodies[i].state.pos[0] > far)
+        if gone:                                      # off the floor they fall, and would read as unstable
+            raise RuntimeError(f"collapse: {gone} grain{'s' if gone > 1 else ''} ran off the floor's end, "
+                               f"{RUNOUT_LENGTHS:g} column lengths past the gate, by t = {O.time:.3f} s: the heap "
+                               "runs out farther than the test measures")
         if not np.all(np.isfinite(v)) or v.max() > 20.0:
             raise RuntimeError(f"collapse: a grain moves at {np.nanmax(v):.2f} m/s at t = {O.time:.3f} s (unstable)")
         front = max(O.bodies[i].state.pos[0] for i in grains)
