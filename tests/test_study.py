@@ -320,3 +320,13 @@ def test_the_screening_says_which_field_stands_above_the_holes_scatter(tmp_path)
 def test_a_bad_morris_section_is_refused_naming_its_key(tmp_path, change, message):
     with pytest.raises(ConfigError, match=r"morris|\[morris\]"):
         load_study(morris_file(tmp_path, MORRIS.replace(change, message)))
+
+
+def test_a_study_plot_is_drawn_against_its_fields_not_against_what_its_runs_measured():
+    """The energy balance's residual differs run to run; it is a reading of the run, never a line of the plot."""
+    import pandas as pd
+    from analysis.batch.study import plot_axes
+    table = pd.DataFrame({"soil": ["clay", "sand"], "soil.damping": [0.1, 0.1], "energy_residual_pct": [3.3, 3.4],
+                          "residual_flag": [False, True], "L2": [44.5, 37.9]})
+    x, group, _ = plot_axes(table)
+    assert (x, group) == ("soil", None)
