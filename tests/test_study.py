@@ -330,3 +330,24 @@ def test_a_study_plot_is_drawn_against_its_fields_not_against_what_its_runs_meas
                           "residual_flag": [False, True], "L2": [44.5, 37.9]})
     x, group, _ = plot_axes(table)
     assert (x, group) == ("soil", None)
+
+
+def test_a_sensitivity_sets_a_case_beside_its_own_packings_holes_where_the_comparison_kept_them(tmp_path):
+    """A case on packing 1 is set beside the comparison's packing-1 holes alone (the packing leaves the shift); a
+    case on a packing the comparison's holes lack falls back to every packing's mean."""
+    import pandas as pd
+    from analysis.batch.study import effect_table
+    comparison = tmp_path / "comparison.csv"
+    pd.DataFrame([{"preset": "validation", "soil": "sand", "metric": "L2", "field_mean": 54.0, "sim_mean": 45.0,
+                   "sim_sd": 4.0, "n_holes": 16}]).to_csv(comparison, index=False)
+    (tmp_path / "comparison" / "validation").mkdir(parents=True)
+    holes = [{"soil": "sand", "seed": s, "found": True, "L2": v} for s, base in ((1, 42.0), (2, 48.0))
+             for v in (base - 1, base, base + 1, base)]
+    holes.append({"soil": "sand", "seed": 1, "found": False, "L2": 90.0})      # not a hole: never read
+    pd.DataFrame(holes).to_csv(tmp_path / "comparison" / "validation" / "holes.csv", index=False)
+    table = pd.DataFrame([{"run": "p1", "soil": "sand", "seed": 1, "found": 8, "L2": 38.0, "L2_sd": 1.0},
+                          {"run": "p3", "soil": "sand", "seed": 3, "found": 8, "L2": 38.0, "L2_sd": 1.0}])
+    effect = effect_table(table, "validation", comparison).set_index("run")
+    assert effect.loc["p1", "packings"] == "1" and effect.loc["p1", "validation_holes"] == 4
+    assert effect.loc["p1", "shift"] == pytest.approx(-4.0) and effect.loc["p1", "resolved"]
+    assert effect.loc["p3", "packings"] == "all" and effect.loc["p3", "shift"] == pytest.approx(-7.0)

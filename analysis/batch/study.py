@@ -218,8 +218,9 @@ def write_table(name: str, head: dict, cases: list[Case], rows: dict, runs_dir: 
     if head.get("against") and comparison.exists():
         effect = effect_table(table, head["against"], comparison)
         if len(effect):
-            atomic_csv(effect.round(3), out / f"{name}-effect.csv", note + f"; against {head['against']}'s holes in "
-                       "results/comparison.csv")
+            atomic_csv(effect.round(3), out / f"{name}-effect.csv", note + f"; against {head['against']}'s holes "
+                       f"of the case's packing (results/comparison/{head['against']}/holes.csv), or of every packing "
+                       "(results/comparison.csv) where those lack it")
     plot(table, head, out / f"{name}.png", note)
     say(f"study {name}: table updated, {len(table)}/{len(cases)} cases")
     return table
@@ -227,11 +228,16 @@ def write_table(name: str, head: dict, cases: list[Case], rows: dict, runs_dir: 
 
 def effect_table(table: pd.DataFrame, against: str, comparison: Path) -> pd.DataFrame:
     """A sensitivity's effect (`[study] against = PRESET`): each case's hole means beside those of the field
-    comparison's runs at that preset for the case's soil (results/comparison.csv), the shift with its 95 %
-    interval (compare.shift), and the shift in % of the field mean. Cases whose soil the comparison lacks are
-    left out."""
+    comparison's runs at that preset for the case's soil, the shift with its 95 % interval (compare.shift), and the
+    shift in % of the field mean. Where the comparison's holes (<comparison's folder>/comparison/PRESET/holes.csv)
+    hold the case's packing, the case is set beside that packing's holes alone, so the packing does not enter the
+    shift (`packings` names it); else beside every packing's (results/comparison.csv, `packings` "all"). Cases whose
+    soil the comparison lacks are left out."""
     base = read_table(comparison)
     base = base[base.preset == against]
+    kept = Path(comparison).parent / "comparison" / against / "holes.csv"
+    holes = read_table(kept) if kept.exists() else pd.DataFrame(columns=["soil", "seed", "found"])
+    holes = holes[holes.found.astype(bool)]
     rows = []
     for r in table.to_dict("records"):
         for m in VALIDATED:
@@ -239,10 +245,16 @@ def effect_table(table: pd.DataFrame, against: str, comparison: Path) -> pd.Data
             if b.empty or not np.isfinite(r.get(m, np.nan)):
                 continue
             b = b.iloc[0]
-            d = shift(r[m], r.get(f"{m}_sd", np.nan), r["found"], b.sim_mean, b.sim_sd, int(b.n_holes))
+            same = holes[(holes.soil == r["soil"]) & (holes.seed == r.get("seed"))].get(m, pd.Series(dtype=float))
+            same = same.dropna()
+            if len(same) >= 2:
+                mean, sd, n, packings = same.mean(), same.std(ddof=1), len(same), str(int(r["seed"]))
+            else:
+                mean, sd, n, packings = b.sim_mean, b.sim_sd, int(b.n_holes), "all"
+            d = shift(r[m], r.get(f"{m}_sd", np.nan), r["found"], mean, sd, n)
             rows.append({"run": r["run"], "soil": r["soil"], "metric": m, "mean": r[m], "holes": r["found"],
-                         f"{against}_mean": b.sim_mean, f"{against}_holes": int(b.n_holes), "field_mean": b.field_mean,
-                         **d, "shift_pct_of_field": 100 * d["shift"] / b.field_mean})
+                         f"{against}_mean": mean, f"{against}_holes": n, "packings": packings,
+                         "field_mean": b.field_mean, **d, "shift_pct_of_field": 100 * d["shift"] / b.field_mean})
     return pd.DataFrame(rows)
 
 
