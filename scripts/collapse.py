@@ -6,8 +6,9 @@ A settled bed's grains stand in a box (a back wall, two smooth side walls, a gat
 RUNOUT_LENGTHS × the column's length beyond the gate). Every contact is a new one, bonded at the soil's
 `new_contact_cohesion` of the intact bonds' strength: the column is soil that a tool has broken and that has been
 pressed together again, what falls back into a hole. The gate is taken away and the column slumps under gravity
-until all but a few grains (STILL_SHARE) move slower than STILL_SPEED. The slope angle is the drop from 80 % to 20 % of
-the crest's height over the distance between where the surface's height profile first falls below each, downhill
+until all but a few grains (STILL_SHARE) move slower than STILL_SPEED; a grain that rolls off the floor's end is
+taken out (counted as ran_off), and the test stops when more than that few do. The slope angle is the drop from 80 %
+to 20 % of the crest's height over the distance between where the surface's height profile first falls below each, downhill
 from the crest, each crossing interpolated between bins (analysis/soil/collapse.py; the surface: the highest
 grain top per bin of one grain diameter along the run-out), the front the farthest a grain got. Writes
 results/soils/collapse/<bed key>.json (or --out) and prints it as a JSON line.
@@ -63,15 +64,19 @@ def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None
     O.dt = 0.5 * utils.PWaveTimeStep()
     O.run(1, True)                                    # every contact bonded at the disturbed soil's strength
     O.bodies.erase(gate)
-    still = False
+    still, column, ran_off = False, len(grains), 0
     while O.time < MAX_TIME:
         O.run(1000, True)
+        off = {i for i in grains if O.bodies[i].state.pos[0] > far}
+        if off:                                       # rolled off the floor's end: not the heap's, and falling
+            for i in off:                             # they would read as unstable
+                O.bodies.erase(i)
+            grains, ran_off = [i for i in grains if i not in off], ran_off + len(off)
+            if ran_off > (1 - STILL_SHARE) * column:
+                raise RuntimeError(f"collapse: {ran_off} grains ran off the floor's end, {RUNOUT_LENGTHS:g} column "
+                                   f"lengths past the gate, by t = {O.time:.3f} s: the heap runs out farther than the "
+                                   "test measures")
         v = np.array([O.bodies[i].state.vel.norm() for i in grains])
-        gone = sum(1 for i in grains if O.bodies[i].state.pos[0] > far)
-        if gone:                                      # off the floor they fall, and would read as unstable
-            raise RuntimeError(f"collapse: {gone} grain{'s' if gone > 1 else ''} ran off the floor's end, "
-                               f"{RUNOUT_LENGTHS:g} column lengths past the gate, by t = {O.time:.3f} s: the heap "
-                               "runs out farther than the test measures")
         if not np.all(np.isfinite(v)) or v.max() > 20.0:
             raise RuntimeError(f"collapse: a grain moves at {np.nanmax(v):.2f} m/s at t = {O.time:.3f} s (unstable)")
         front = max(O.bodies[i].state.pos[0] for i in grains)
@@ -94,7 +99,8 @@ def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None
     return {"bed": meta["key"], "soil": soil.name, "radius_m": r, "size_m": [L, W, D],
             "new_contact_cohesion": soil.new_contact_cohesion, "angle_deg": slope["angle_deg"], "slope_run_m": slope["run_m"],
             "height_ratio": slope["height_m"] / top0, "runout_mm": 1000 * (float(np.max(pos[:, 0] + rad)) - L),
-            "particles": len(grains), "steps": int(O.iter), "dt": O.dt, "time_s": O.time, "wall_s": time.time() - wall0,
+            "particles": column, "ran_off": ran_off, "steps": int(O.iter), "dt": O.dt, "time_s": O.time,
+            "wall_s": time.time() - wall0,
             "threads": threads, "profile_mm": [[round(1000 * a, 1), round(1000 * b, 1)] for a, b in zip(edges[:-1], top)]}
 
 
