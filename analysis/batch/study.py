@@ -240,13 +240,13 @@ def effect_table(table: pd.DataFrame, against: str, comparison: Path) -> pd.Data
     holes = holes[holes.found.astype(bool)]
     rows = []
     for r in table.to_dict("records"):
+        own = holes[(holes.soil == r.get("soil")) & (holes.seed == r.get("seed"))]      # the case's packing
         for m in VALIDATED:
             b = base[(base.soil == r.get("soil")) & (base.metric == m)]
             if b.empty or not np.isfinite(r.get(m, np.nan)):
                 continue
             b = b.iloc[0]
-            same = holes[(holes.soil == r["soil"]) & (holes.seed == r.get("seed"))].get(m, pd.Series(dtype=float))
-            same = same.dropna()
+            same = own.get(m, pd.Series(dtype=float)).dropna()
             if len(same) >= 2:
                 mean, sd, n, packings = same.mean(), same.std(ddof=1), len(same), str(int(r["seed"]))
             else:
