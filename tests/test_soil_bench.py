@@ -87,16 +87,19 @@ def test_the_response_surfaces_find_the_region_a_made_up_planar_bench_puts_the_t
         x = bench.surface_terms(t)
         return pd.DataFrame({"c_kpa": 2 + 0.07 * x.bond_kpa + 40 * x.rolling_friction,
                              "phi_deg": 22 + 0.45 * x.friction_deg + 10 * x.rolling_friction,
-                             "collapse_deg": 20 + 2.5 * x.disturbed_bond_kpa + 0.5 * x.friction_deg})
+                             "collapse_deg": 20 + 2.5 * x.disturbed_bond_kpa + 0.5 * x.friction_deg + 50 * x.damping})
     clean = planar(table)
     for r in bench.RESPONSES:
         table[r] = clean[r] + rng.normal(0, 0.5, len(table))
     surf = bench.response_surfaces(table).set_index("response")
     assert surf.loc["c_kpa", "bond_kpa"] == pytest.approx(0.07, rel=0.05)
     assert surf.loc["collapse_deg", "disturbed_bond_kpa"] == pytest.approx(2.5, rel=0.05)
+    assert surf.loc["collapse_deg", "damping"] == pytest.approx(50, rel=0.05) and surf.loc["c_kpa", "damping"] < 2
     assert (surf["r2"] > 0.95).all() and (surf["resid_sd"] < 1.0).all()
+    unset = bench.response_surfaces(table.drop(columns="damping").assign(collapse_deg=clean.collapse_deg))
+    assert (unset["damping"] == 0).all()          # evaluations that all ran at one damping give it no slope
     truth = pd.DataFrame([{"normal_cohesion": 3e5, "friction_deg": 15.0, "new_contact_cohesion": 0.005,
-                           "rolling_friction": 0.05}])
+                           "rolling_friction": 0.05, "damping": 0.15}])
     at = planar(truth).iloc[0]
     targets = pd.DataFrame({"lo": at - 3, "hi": at + 3})
     region = bench.feasible_region(surf.reset_index(), targets, bounds)
@@ -406,7 +409,7 @@ def test_the_deepest_point_lies_midway_in_made_up_planes_and_its_check_runs_it_o
     plane's scatter; `calibrate --bench --check-deepest` runs that set
     on every check packing into <soil>-deepest-check.csv, leaving the posterior's check alone."""
     bounds = {"normal_cohesion": (5e4, 1.5e5), "friction_deg": (10.0, 20.0), "new_contact_cohesion": (0.0, 0.01),
-              "rolling_friction": (0.0, 0.3)}
+              "rolling_friction": (0.0, 0.3), "damping": (0.05, 0.3)}
     planes = pd.DataFrame([
         {"response": "c_kpa", "intercept": 0.0, "bond_kpa": 0.2, "friction_deg": 0.0, "disturbed_bond_kpa": 0.0,
          "rolling_friction": 0.0, "resid_sd": 1.875},
@@ -452,8 +455,8 @@ def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_
     monkeypatch.setattr(bench, "cone_scene",
                         lambda args, log: {"cone_index_pa": 2e3 * float(args[args.index("--cohesion") + 1]) / 1e3})
     cfg = bench.load_config(soil="loam")
-    sets = [{"normal_cohesion": b, "friction_deg": 16.0, "new_contact_cohesion": 0.005, "rolling_friction": 0.2}
-            for b in (1.2e5, 0.8e5)]
+    sets = [{"normal_cohesion": b, "friction_deg": 16.0, "new_contact_cohesion": 0.005, "rolling_friction": 0.2,
+             "damping": 0.15} for b in (1.2e5, 0.8e5)]
     bench.probes("loam", sets[:1], cfg, tmp_path)
     table = bench.probes("loam", sets[1:], cfg, tmp_path)
     saved = pd.read_csv(tmp_path / "loam-probes.csv", comment="#")

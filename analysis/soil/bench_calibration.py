@@ -33,7 +33,7 @@ TARGETS = ROOT / "configs/field/soil_targets.csv"
 BENCH_DIR = ROOT / "results/calibration/bench"
 RESPONSES = ("c_kpa", "phi_deg", "collapse_deg")
 UNTESTABLE = 3         # a bench scene's exit code when it stopped the test itself (scripts/shear.py, scripts/collapse.py)
-SCENES_VERSION = 2     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
+SCENES_VERSION = 3     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
 
 
 def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
@@ -523,8 +523,9 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
     names = list(cfg["bounds"])
 
     def one(row):
-        return {**{k: row[k] for k in ("id", *names, *RESPONSES)},
-                "cone_kpa": cone_check(soil, {n: row[n] for n in names}, cfg, out_dir)["mean"]}
+        ran = [n for n in names if n in row]        # the parameters the evaluation set (the others: the soil's)
+        return {**{k: row[k] for k in ("id", *ran, *RESPONSES)},
+                "cone_kpa": cone_check(soil, {n: row[n] for n in ran}, cfg, out_dir)["mean"]}
     with ThreadPoolExecutor(max_workers=workers) as pool:
         table = pd.DataFrame(list(pool.map(one, rows)))
     path = Path(out_dir) / f"{soil}-cones.csv"
@@ -586,6 +587,10 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
         last = t[t["weight_last"].notna()]
         for j, n in enumerate(names):
             ax = axes[i][j]
+            if n not in post["mean"]:             # a filter that did not calibrate it (held at the soil's value)
+                ax.text(0.5, 0.5, f"{soil}: {n} not calibrated", ha="center", transform=ax.transAxes)
+                ax.set_axis_off()
+                continue
             ax.scatter(t[n], t["iteration"], s=12, c="0.6", label="samples")
             ax.scatter(last[n], last["iteration"], s=20 + 300 * last["weight_last"], c=colours[soil], label="last, by weight")
             lo, hi = post["interval"][n]
@@ -670,20 +675,23 @@ def write_posterior(soil: str, post: dict, check_result: dict, command: str, pat
     return path
 
 
-SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction")
+SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping")
+UNSET_DAMPING = 0.2    # the local damping of an evaluation that did not calibrate it: every soil's before it was
 
 
 def surface_terms(table: pd.DataFrame) -> pd.DataFrame:
     """An evaluation's parameters as the response surfaces' terms: the intact bond and the bond a contact made
-    after disturbance gets (new-contact share × bond), both in kPa, the grains' friction and rolling friction."""
+    after disturbance gets (new-contact share × bond), both in kPa, the grains' friction, rolling friction and the
+    local damping (UNSET_DAMPING where the evaluation did not set it)."""
+    damping = table["damping"] if "damping" in table else pd.Series(UNSET_DAMPING, index=table.index)
     return pd.DataFrame({"bond_kpa": table["normal_cohesion"] / 1e3, "friction_deg": table["friction_deg"],
                          "disturbed_bond_kpa": table["normal_cohesion"] * table["new_contact_cohesion"] / 1e3,
-                         "rolling_friction": table["rolling_friction"]})
+                         "rolling_friction": table["rolling_friction"], "damping": damping.fillna(UNSET_DAMPING)})
 
 
 def response_surfaces(table: pd.DataFrame) -> pd.DataFrame:
     """Each bench response (and the cone index, where the table has it) fitted as a plane in SURFACE_TERMS over a
-    soil's finished evaluations (least squares):
+    soil's finished evaluations (least squares; a term that does not vary over them gets no slope):
     one row per response with its intercept, a coefficient per term, R² and the residual SD (the packing's and the
     plane's misfit together). What each test answers to, and a cheap stand-in for the scenes over the prior.
 
@@ -699,12 +707,15 @@ def response_surfaces(table: pd.DataFrame) -> pd.DataFrame:
     rows = []
     for r in (*RESPONSES, *(["cone_kpa"] if "cone_kpa" in tested else [])):     # the cone where the filter fitted it
         ok = tested.dropna(subset=[r])
-        X = np.column_stack([np.ones(len(ok)), surface_terms(ok).to_numpy(float)])
+        terms = surface_terms(ok)
+        varied = [t for t in SURFACE_TERMS if terms[t].nunique() > 1]
+        X = np.column_stack([np.ones(len(ok)), terms[varied].to_numpy(float)])
         y = ok[r].to_numpy(float)
         coef, *_ = np.linalg.lstsq(X, y, rcond=None)
         resid = y - X @ coef
         spread = np.sum((y - y.mean()) ** 2)
-        rows.append({"response": r, "intercept": coef[0], **dict(zip(SURFACE_TERMS, coef[1:])), "n": len(ok),
+        slopes = {t: 0.0 for t in SURFACE_TERMS} | dict(zip(varied, coef[1:]))
+        rows.append({"response": r, "intercept": coef[0], **slopes, "n": len(ok),
                      "r2": 1 - np.sum(resid ** 2) / spread if spread > 0 else math.nan,
                      "resid_sd": float(np.std(resid, ddof=X.shape[1])) if len(ok) > X.shape[1] else math.nan})
     return pd.DataFrame(rows)
@@ -729,7 +740,7 @@ def feasible_region(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict,
     terms = surface_terms(sample).to_numpy(float)
     inside = np.ones(n, bool)
     for s in surfaces.itertuples():
-        pred = s.intercept + terms @ np.array([getattr(s, t) for t in SURFACE_TERMS])
+        pred = s.intercept + terms @ np.array([getattr(s, t, 0.0) for t in SURFACE_TERMS])
         inside &= (pred >= targets.loc[s.response, "lo"]) & (pred <= targets.loc[s.response, "hi"])
     out = {"share": float(inside.mean())}
     for k in bounds:
@@ -754,23 +765,24 @@ def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict) -
     """
     from scipy.optimize import linprog
     (b_lo, b_hi), (s_lo, s_hi) = bounds["normal_cohesion"], bounds["new_contact_cohesion"]
-    # variables: the four terms and t
+    # variables: the five terms and t (the damping held at UNSET_DAMPING where the prior does not calibrate it)
     box = [(b_lo / 1e3, b_hi / 1e3), tuple(bounds["friction_deg"]), (0.0, None), tuple(bounds["rolling_friction"]),
-           (None, None)]
-    planes = surfaces.set_index("response")
-    coefs = planes[list(SURFACE_TERMS)].to_numpy(float)
-    rows, rhs = [[-s_hi, 0, 1, 0, 0], [s_lo, 0, -1, 0, 0]], [0.0, 0.0]
+           tuple(bounds.get("damping", (UNSET_DAMPING, UNSET_DAMPING))), (None, None)]
+    planes = surfaces.set_index("response").reindex(columns=[*SURFACE_TERMS, "intercept", "resid_sd"])
+    coefs = planes[list(SURFACE_TERMS)].fillna(0.0).to_numpy(float)
+    rows, rhs = [[-s_hi, 0, 1, 0, 0, 0], [s_lo, 0, -1, 0, 0, 0]], [0.0, 0.0]
     for r, coef in zip(planes.itertuples(), coefs):
         lo, hi = targets.loc[r.Index, ["lo", "hi"]]
         rows += [[*-coef, r.resid_sd], [*coef, r.resid_sd]]
         rhs += [r.intercept - lo, hi - r.intercept]
-    out = linprog([0, 0, 0, 0, -1], A_ub=rows, b_ub=rhs, bounds=box)
+    out = linprog([0, 0, 0, 0, 0, -1], A_ub=rows, b_ub=rhs, bounds=box)
     if not out.success:
         raise RuntimeError(f"deepest_point: {out.message}")
-    bond, friction, disturbed, rolling, margin = out.x
+    bond, friction, disturbed, rolling, damping, margin = out.x
     point = {"margin_sd": float(margin), "normal_cohesion": float(bond * 1e3), "friction_deg": float(friction),
-             "new_contact_cohesion": float(disturbed / bond) if bond > 0 else 0.0, "rolling_friction": float(rolling)}
-    predicted = planes["intercept"].to_numpy(float) + coefs @ np.array([bond, friction, disturbed, rolling])
+             "new_contact_cohesion": float(disturbed / bond) if bond > 0 else 0.0, "rolling_friction": float(rolling),
+             **({"damping": float(damping)} if "damping" in bounds else {})}
+    predicted = planes["intercept"].to_numpy(float) + coefs @ np.array([bond, friction, disturbed, rolling, damping])
     return {**point, **dict(zip(planes.index, map(float, predicted)))}
 
 
