@@ -28,7 +28,7 @@ from analysis.core.soil_config import load_soil, parse_overrides, soil_with  # n
 from analysis.core.io import atomic_write  # noqa: E402
 from analysis.soil.collapse import slope_angle  # noqa: E402
 
-RUNOUT_LENGTHS = 4.0           # the floor beyond the gate, in column lengths (2.5 lost 40 grains of a clay column at damping 0.1)
+RUNOUT_LENGTHS = 4.0           # the floor beyond the gate, in column lengths (room for a low-damping heap's toe)
 STILL_SPEED = 0.01             # m/s: the collapse is over when STILL_SHARE of the grains move slower
 STILL_SHARE = 0.99             # (a few grains rolling away on the floor do not hold the test open)
 MAX_TIME_FIELD = Field(0.5, 30.0, unit="s", meaning="the longest a collapse may run")

@@ -561,3 +561,40 @@ def test_the_collapse_column_takes_its_own_size_and_names_the_evaluation_only_wh
     (tmp_path / "b.toml").write_text(text)
     with pytest.raises(ConfigError, match="collapse_size_mm"):
         bench.load_config(tmp_path / "b.toml")
+
+
+REBOUND = """
+import json, sys
+from scripts.yadeboot import boot
+boot(1)
+from yade import O, utils
+from analysis.core.soil_config import load_soil
+from scripts import soil as part
+out = {}
+for damping in map(float, sys.argv[1:]):
+    O.reset()
+    mat = O.materials.append(part.soil_material(load_soil("sand"), density=2650.0, cohesive=False))
+    grain = O.bodies.append(utils.sphere((0, 0, 0.0061), 0.006, material=mat))
+    O.bodies.append(utils.box((0, 0, -0.01), (0.05, 0.05, 0.01), fixed=True, material=mat))
+    O.bodies[grain].state.vel = (0, 0, -0.5)
+    O.engines = part.engines(damping, cohesion_on_new_contacts=False, gravity=(0, 0, 0))
+    O.dt = 0.2 * utils.PWaveTimeStep()
+    O.run(20000, True)
+    out[damping] = O.bodies[grain].state.vel[2] / 0.5
+print(json.dumps(out))
+"""
+
+
+@pytest.mark.scene
+def test_the_local_damping_gives_one_grain_striking_a_wall_a_restitution_below_one():
+    """The contact law alone is elastic in compression: a grain striking a wall without the local damping comes back
+    at its own speed; with a local damping λ at √((1 − λ)/(1 + λ)) of it (the README's reading of the damping)."""
+    import os
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-c", REBOUND, "0", "0.1", "0.2", "0.3"], capture_output=True, text=True,
+                       cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    restitution = {float(k): v for k, v in json.loads(r.stdout.strip().splitlines()[-1]).items()}
+    for lam, e in restitution.items():
+        assert e == pytest.approx(math.sqrt((1 - lam) / (1 + lam)), abs=0.01), (lam, e)
