@@ -156,7 +156,7 @@ def write(out: Path, preset: str, holes, table, field, costs, criteria, runs_dir
     folder = out / "comparison"
     own = folder / preset                    # this preset's tables, plots and pictures
     own.mkdir(parents=True, exist_ok=True)
-    atomic_csv(holes.round(2), own / "holes.csv", note)
+    atomic_csv(holes.round(2), compare.kept_holes(preset, out), note)
     cpu = (f" and {costs.cpu_s.sum():.0f} s of CPU" if "cpu_s" in costs and costs.cpu_s.notna().all() else "")
     cost = "Cost: not recorded for these runs." if costs.empty else (
         f"Cost: {len(costs)} runs, {int(costs.particles.mean())} grains each on average, "

@@ -26,7 +26,7 @@ import pandas as pd
 
 from analysis.core.io import say
 from analysis.core.runner import finished, plan_case, run_all, scene_args
-from analysis.holes.compare import RESIDUAL_LIMIT, VALIDATED, residual_pct, shift
+from analysis.holes.compare import RESIDUAL_LIMIT, VALIDATED, kept_holes, packing_holes, residual_pct, shift
 from analysis.core.config import load_preset
 from analysis.core.seedling import load_criteria
 from analysis.core.schema import ROOT, read_toml, ConfigError
@@ -235,12 +235,11 @@ def effect_table(table: pd.DataFrame, against: str, comparison: Path) -> pd.Data
     soil the comparison lacks are left out."""
     base = read_table(comparison)
     base = base[base.preset == against]
-    kept = Path(comparison).parent / "comparison" / against / "holes.csv"
+    kept = kept_holes(against, Path(comparison).parent)
     holes = read_table(kept) if kept.exists() else pd.DataFrame(columns=["soil", "seed", "found"])
-    holes = holes[holes.found.astype(bool)]
     rows = []
     for r in table.to_dict("records"):
-        own = holes[(holes.soil == r.get("soil")) & (holes.seed == r.get("seed"))]      # the case's packing
+        own = packing_holes(holes, r.get("soil"), r.get("seed"))                       # the case's packing
         for m in VALIDATED:
             b = base[(base.soil == r.get("soil")) & (base.metric == m)]
             if b.empty or not np.isfinite(r.get(m, np.nan)):

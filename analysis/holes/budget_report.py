@@ -26,7 +26,7 @@ import pandas as pd
 from analysis.core.io import atomic_csv, read_table, shown, stamp
 from analysis.core.schema import ROOT, ConfigError
 from analysis.holes.budget import bond_interval, budget
-from analysis.holes.compare import t975
+from analysis.holes.compare import kept_holes, packing_holes, shift_from_holes, t975
 
 METRICS = ("L0", "L1", "L2", "L2_surface", "h1")
 OUT = ROOT / "results/validation"
@@ -97,18 +97,16 @@ def soil_slopes(study: pd.DataFrame, holes: pd.DataFrame, bonds: pd.DataFrame, m
     """Per soil and metric: the shift of the strip with the bond stepped (a row of the study's table) from the same
     packing's validation strip (its holes), with its 95 % interval (compare.shift), over the bond step: the slope
     (mm per kPa), and the soil part, |slope| × the bond's half-width, with the same for the shift's interval."""
-    from analysis.holes.compare import shift
     rows = []
     for case in study.to_dict("records"):
         b = bonds[bonds.soil == case["soil"]]
-        base = holes[(holes.soil == case["soil"]) & (holes.seed == case["seed"]) & holes.found.astype(bool)]
+        base = packing_holes(holes, case["soil"], case["seed"])
         if b.empty or base.empty:
             continue
         b = b.iloc[0]
         step = case["soil.normal_cohesion"] / 1000 - b.adopted
         for m in metrics:
-            d = shift(case[m], case[f"{m}_sd"], int(case["found"]), base[m].mean(), base[m].std(ddof=1),
-                      int(base[m].notna().sum()))
+            d = shift_from_holes(case[m], case[f"{m}_sd"], int(case["found"]), base[m])
             slope = d["shift"] / step
             rows.append({"soil": case["soil"], "metric": m, "seed": case["seed"], "bond_kpa": b.adopted,
                          "step_kpa": step, "shift": d["shift"], "shift_lo": d["shift_lo"], "shift_hi": d["shift_hi"],
@@ -161,7 +159,7 @@ def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Pat
     if comparison.empty:
         raise ConfigError(f"{comparison_path} has no rows of preset {preset!r}: run `./holes compare "
                           f"--preset {preset}` first")
-    holes = read_table(ROOT / "results/comparison" / preset / "holes.csv")
+    holes = read_table(kept_holes(preset))
     grain = read_table(OUT / "grain_size.csv")
     radius_mm = 1000 * load_resolution(p.resolution).radius
     machine_rows = machine_fit = None

@@ -42,6 +42,26 @@ def t975(dof: int) -> float:
     return float(t.ppf(0.975, dof)) if dof >= 1 else math.nan
 
 
+def kept_holes(preset: str, results: Path = ROOT / "results") -> Path:
+    """Where `./holes compare --preset PRESET` keeps every measured hole of its runs (one row per hole)."""
+    return Path(results) / "comparison" / preset / "holes.csv"
+
+
+def packing_holes(holes: pd.DataFrame, soil: str, seed: int) -> pd.DataFrame:
+    """The holes a soil's strip found on one packing (the rows of a kept holes table)."""
+    return holes[(holes.soil == soil) & (holes.seed == seed) & holes.found.astype(bool)]
+
+
+def shift_from_holes(mean: float, sd: float, n: int, holes: pd.Series) -> dict:
+    """`shift` of a case (mean, SD, count) from measured holes' values, blanks left out.
+
+    >>> shift_from_holes(12.0, 1.0, 2, pd.Series([9.0, 10.0, 11.0, None]))["shift"]
+    2.0
+    """
+    h = holes.dropna()
+    return shift(mean, sd, n, h.mean(), h.std(ddof=1), len(h))
+
+
 def shift(mean: float, sd: float, n: int, base_mean: float, base_sd: float, base_n: int) -> dict:
     """A variant's mean against a baseline's, from each one's holes (mean, SD, count): the shift and its 95 %
     interval (Welch: the two spreads not assumed equal), and whether the interval excludes 0 (resolved).
