@@ -2,7 +2,9 @@
 parameters, and it refuses a hole metric as a soil's target."""
 import pytest
 
-from analysis.soil.bayes import calibrate
+import numpy as np
+
+from analysis.soil.bayes import calibrate, first_samples
 
 TRUE = {"bond_kpa": 40.0, "friction_deg": 30.0, "new_contact": 0.4}
 BOUNDS = {"bond_kpa": (10, 100), "friction_deg": (15, 45), "new_contact": (0, 1)}
@@ -23,6 +25,23 @@ def test_grainlearning_recovers_made_up_parameters_from_a_made_up_smooth_respons
         assert r["mean"][name] == pytest.approx(value, rel=0.08), (name, r["mean"])
         assert 0 < r["cv"][name] < 0.3
     assert len(r["samples"]) == len(r["weights"])
+
+
+def test_the_first_samples_fill_the_prior_without_tying_parameters_together():
+    """Twelve samples in five parameters (a bench filter's first iteration): every parameter spans its range in
+    twelve strata, no two move together (GrainLearning's default Halton sequence ties the fourth and fifth), and
+    the same seed draws the same samples, so a stopped filter resumes on its own evaluations."""
+    bounds = {k: (0.0, 1.0 + i) for i, k in enumerate("abcde")}
+    u = first_samples(bounds, 12, seed=0)
+    for j, (lo, hi) in enumerate(bounds.values()):
+        strata = np.floor(12 * (u[:, j] - lo) / (hi - lo)).astype(int)
+        assert sorted(strata) == list(range(12))
+    corr = np.corrcoef(u.T) - np.eye(5)
+    assert np.abs(corr).max() < 0.25
+    assert np.array_equal(u, first_samples(bounds, 12, seed=0))
+    result = calibrate(lambda p: {"x": p["a"], "y": p["b"]}, {"x": (0.4, 0.6), "y": (0.9, 1.1)}, bounds,
+                       samples=12, iterations=1)
+    assert np.allclose(result["samples"], u)          # the filter's first iteration is these samples
 
 
 def test_a_hole_metric_is_never_a_soils_target():
