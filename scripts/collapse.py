@@ -22,8 +22,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.core.cli_types import folder, option  # noqa: E402
-from analysis.core.schema import Field  # noqa: E402
-from analysis.core.schema import ROOT, ConfigError  # noqa: E402
+from analysis.core.schema import ROOT, ConfigError, Field  # noqa: E402
 from analysis.core.soil_config import load_soil, parse_overrides, soil_with  # noqa: E402
 from analysis.core.io import atomic_write  # noqa: E402
 from analysis.soil.collapse import slope_angle  # noqa: E402

@@ -676,7 +676,7 @@ def write_posterior(soil: str, post: dict, check_result: dict, command: str, pat
 
 
 SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping")
-UNSET_DAMPING = 0.2    # the local damping of an evaluation that did not calibrate it: every soil's before it was
+UNSET_DAMPING = 0.2    # the local damping an evaluation that does not set one runs at: every soil's configured value
 
 
 def surface_terms(table: pd.DataFrame) -> pd.DataFrame:
