@@ -18,6 +18,7 @@ from analysis.batch.bench import (CONVERGENCE, pyplot, run_cost, save, study_tab
                                   with_numerics)
 from analysis.core.config import load_preset, load_resolution
 from analysis.core.schema import ROOT
+from analysis.holes.compare import kept_holes
 from analysis.core.io import atomic_csv, machine, read_table, stamp
 
 
@@ -128,7 +129,7 @@ def run_presets(reference: str = "validation_surface", out=None, comparison_dir=
                          f"({machine_of[reference] or 'the disk config'}); run one with ./holes compare --preset NAME")
     costs = []
     for preset in [reference, *presets]:
-        runs = read_table(results / "comparison" / preset / "holes.csv").run.unique()
+        runs = read_table(kept_holes(preset, results)).run.unique()
         for run in runs:
             summary = results / "comparison" / "runs" / run / "summary.json"
             if summary.exists():
