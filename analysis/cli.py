@@ -8,7 +8,7 @@ from pathlib import Path
 
 from analysis.commands import (cmd_bench, cmd_budget, cmd_calibrate, cmd_calibrate_machine, cmd_calibration_report,
                                cmd_compare, cmd_cone_checks, cmd_cone_damage, cmd_measure, cmd_metrology_band,
-                               cmd_params, cmd_pepper, cmd_pepper_frame, cmd_report, cmd_rings, cmd_study, cmd_theory,
+                               cmd_params, cmd_pepper, cmd_pepper_frame, cmd_refill, cmd_report, cmd_rings, cmd_study, cmd_theory,
                                run_scene)
 from analysis.core.cli_types import CommandLine, folder, option
 from analysis.core.config import COLLIDER_STEPS, CONE_FIELDS, SEED, THREADS, WORKERS
@@ -177,6 +177,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("folders", nargs="+", type=run_folder, help="results/runs/<id> ...")
     p.add_argument("--out", type=folder("--out"), default="results/comparison/rings")
     p.set_defaults(func=cmd_rings)
+    p = sub.add_parser("refill", help="the grains back inside each punch's volume after it left, and where they came "
+                       "from (refill.csv)")
+    p.add_argument("folders", nargs="+", type=run_folder, help="results/runs/<id> ...")
+    p.add_argument("--out", type=folder("--out"), default="results/comparison/refill")
+    p.set_defaults(func=cmd_refill)
     p = sub.add_parser("calibrate-machine", help="fit the penetration and the sleeve's spring on clay's field "
                        "holes (results/calibration/machine.csv, machine_fit.csv)")
     p.add_argument("design", nargs="?", default="configs/studies/machine_clay.toml",

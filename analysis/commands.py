@@ -116,6 +116,18 @@ def cmd_metrology_band(args) -> int:
     return 0
 
 
+def cmd_refill(args) -> int:
+    from analysis.holes import refill
+    try:
+        table = refill.run(args.folders, Path(args.out))
+    except (ConfigError, ValueError) as e:
+        print(f"refill: {e}", file=sys.stderr)
+        return 2
+    print(table.drop(columns=["run"]).to_string(index=False))
+    print(f"wrote {args.out}/refill.csv")
+    return 0
+
+
 def cmd_rings(args) -> int:
     from analysis.holes import rings
     table, levels = rings.run(args.folders, Path(args.out))

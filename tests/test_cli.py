@@ -89,7 +89,7 @@ def test_a_stored_cone_run_at_zero_cohesion_is_found_without_dividing_by_it():
 
 
 @pytest.mark.parametrize("damage", ["no summary", "bad summary", "bad state", "empty state"])
-@pytest.mark.parametrize("command", [["measure"], ["report"], ["rings", "--out", "OUT"]])
+@pytest.mark.parametrize("command", [["measure"], ["report"], ["rings", "--out", "OUT"], ["refill", "--out", "OUT"]])
 def test_a_broken_run_folder_is_refused_in_one_line(tmp_path, capsys, damage, command):
     """A kept run copied whole, then one of its files missing or corrupt: every command that reads a run says so
     in one line with exit 2, no traceback, and writes nothing."""

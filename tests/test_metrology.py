@@ -269,3 +269,27 @@ def test_soil_ordering_of_equal_rates_is_a_tie():
                       "sim_mean": [0.13, 0.08, 0.0], "ci_lo": [0.0] * 3, "ci_hi": [9.1, 6.5, 0.0]})
     o = compare.ordering(t)["pass_stated"]
     assert o["tie"] and not o["simulated"] and not o["resolved"]
+
+
+def test_grains_put_back_into_a_punchs_volume_are_counted_with_where_they_came_from(tmp_path):
+    """The kept run's holes stand open; grains moved from the ring beside the second hole into its punch's volume
+    are found there, and only there, as having come from the ring and from above."""
+    import shutil
+    from analysis.holes import refill
+    from analysis.holes.measure import hole_centres, load_run
+    run = tmp_path / "run"
+    shutil.copytree(ROOT / "tests/data/kept_run", run)
+    before = refill.refill_run(run)
+    assert (before.grains == 0).all() and (before.refill == 0).all()
+    cfg, summary, state = load_run(run)
+    x = hole_centres(summary)[summary.get("lead_in", 0) + 1] / 1000
+    y, z_top = cfg["bed_size_mm"][1] / 2000, float(state["z_surface"])
+    pos0 = state["initial_pos"]
+    ring = np.flatnonzero((np.hypot(pos0[:, 0] - x, pos0[:, 1] - y) > 0.03) & (np.hypot(pos0[:, 0] - x, pos0[:, 1] - y) < 0.04)
+                          & (pos0[:, 2] > z_top - 0.02))[:3]
+    pos = state["pos"].copy()
+    pos[ring] = [[x + 0.01 * k - 0.01, y, z_top - 0.045] for k in range(3)]   # 45 mm down, side by side on the axis
+    np.savez(run / "state.npz", **{**state, "pos": pos})
+    after = refill.refill_run(run)
+    assert list(after.grains) == [0, 3] and list(after.from_ring) == [0, 3] and list(after.from_above) == [0, 3]
+    assert 0 < after.refill[1] < 0.2 and after.origin_depth[1] < 20 and 30 < after.origin_r[1] < 40
