@@ -7,7 +7,10 @@ cohesion does not depend on the resolution to first order.
 punch has broken re-adheres where it is pressed together (as moist soil does). Fragile bonds (`bond_fragile` 1),
 once their strength is exceeded, leave friction only; ductile ones (0) slide keeping their shear strength, as the
 suction of a moist soil's water holds while it shears, and break only when pulled apart. Rolling resistance
-(`momentRotationLaw`, alphaKr, etaRoll) stands in for grain angularity.
+(`momentRotationLaw`, alphaKr, etaRoll) stands in for grain angularity. Pressed re-adhesion (`pressed_adhesion` α
+above 0): a contact holding less than the intact bond gains a bond of α times the compressive force it carries,
+kept at the most it was pressed to and at most the intact bond, as moist soil pressed together re-adheres and a
+loose heap of it does not (the pull-off force of elasto-plastic adhesive contacts grows with their preload).
 """
 import math
 
@@ -17,6 +20,7 @@ from yade import (CohFrictMat, ForceResetter, InsertionSortCollider, Interaction
                   Law2_ScGeom6D_CohFrictPhys_CohesionMoment)
 
 GRAVITY = (0.0, 0.0, -9.81)
+PRESS_EVERY = 20                 # steps between the passes of the pressed re-adhesion
 CELL_MARGIN = 0.1                # m between anything in a periodic cell and its nearest image
 STEEL_SOIL_FRICTION_DEG = 25.0   # soil on polished steel, typical 20-30 deg
 
@@ -108,3 +112,40 @@ def bond_new_contacts(O, soil):
         if m.label == "soil":
             m.normalCohesion = soil.new_contact_cohesion * soil.normal_cohesion
             m.shearCohesion = soil.new_contact_cohesion * soil.shear_cohesion
+
+
+def press_bonds(O, alpha: float, normal: float, shear: float, grain) -> int:
+    """One pass of the pressed re-adhesion (module doc) over the grain-grain contacts (`grain`: a bool per body id):
+    a contact whose bond is below the intact one (`normal` times r_min², YADE's Ip2) and that is compressed by a
+    force F gets α F as its bond when that is more than it holds, capped at the intact one; returns how many."""
+    n, size = 0, len(grain)
+    for I in O.interactions:
+        if not I.isReal or I.id1 >= size or I.id2 >= size or not (grain[I.id1] and grain[I.id2]):
+            continue
+        phys, geom = I.phys, I.geom
+        cap = normal * min(geom.refR1, geom.refR2) ** 2
+        if phys.normalAdhesion >= cap:
+            continue
+        bond = min(cap, alpha * phys.normalForce.dot(geom.normal))
+        if bond > phys.normalAdhesion:
+            phys.normalAdhesion, phys.shearAdhesion, phys.cohesionBroken = bond, bond * shear / normal, False
+            n += 1
+    return n
+
+
+def pressed_adhesion(O, soil, every: int = PRESS_EVERY) -> list:
+    """The engine of the pressed re-adhesion (module doc) when the soil has one (`pressed_adhesion` > 0), else none:
+    every `every` steps a pass of press_bonds over the spheres there are now. PyRunner evaluates its command in
+    YADE's global namespace: the pass is put there under a name no engine's label takes."""
+    if not soil.pressed_adhesion:
+        return []
+    import builtins
+    import numpy as np
+    from yade import PyRunner, Sphere
+
+    def press():
+        grain = np.array([b is not None and isinstance(b.shape, Sphere) for b in O.bodies], bool)
+        press_bonds(O, soil.pressed_adhesion, soil.normal_cohesion, soil.shear_cohesion, grain)
+
+    builtins.holes_press_bonds = press
+    return [PyRunner(command="holes_press_bonds()", iterPeriod=every, label="pressed")]

@@ -598,3 +598,50 @@ def test_the_local_damping_gives_one_grain_striking_a_wall_a_restitution_below_o
     restitution = {float(k): v for k, v in json.loads(r.stdout.strip().splitlines()[-1]).items()}
     for lam, e in restitution.items():
         assert e == pytest.approx(math.sqrt((1 - lam) / (1 + lam)), abs=0.01), (lam, e)
+
+
+PRESSED = """
+import json, sys
+from scripts.yadeboot import boot
+boot(1)
+from yade import O, utils
+from analysis.core.soil_config import load_soil, soil_with
+from scripts import soil as part
+alpha, press, pull = map(float, sys.argv[1:])
+soil = soil_with(load_soil("clay"), {"normal_cohesion": 176e3, "shear_cohesion": 176e3, "bond_fragile": 0,
+                                     "new_contact_cohesion": 0.0, "pressed_adhesion": alpha})
+mat = O.materials.append(part.soil_material(soil, density=2650.0))
+O.materials[mat].normalCohesion = O.materials[mat].shearCohesion = 0.0    # a new contact: no bond of its own
+a = O.bodies.append(utils.sphere((0, 0, 0), 0.006, material=mat, fixed=True))
+b = O.bodies.append(utils.sphere((0, 0, 0.011999), 0.006, material=mat))    # touching: 1 µm
+O.engines = part.engines(0.3, cohesion_on_new_contacts=True, gravity=(0, 0, 0), extra=part.pressed_adhesion(O, soil))
+O.dt = 0.2 * utils.PWaveTimeStep()
+for k in range(1, 41):                                  # pressed slowly: no overshoot past the press
+    O.forces.setPermF(b, (0, 0, -press * k / 40))
+    O.run(200, True)
+O.run(2000, True)
+bond = O.interactions[a, b].phys.normalAdhesion
+for k in range(1, 41):                                  # and pulled slowly
+    O.forces.setPermF(b, (0, 0, -press + (press + pull) * k / 40))
+    O.run(200, True)
+O.run(2000, True)
+print(json.dumps({"bond": bond, "apart": O.bodies[b].state.pos[2] > 0.0125}))
+"""
+
+
+@pytest.mark.scene
+@pytest.mark.parametrize("alpha, pull, apart", [(0.0, 0.5, True), (0.5, 0.8, False), (0.5, 1.3, True),
+                                                (5.0, 6.0, False), (5.0, 7.0, True)])
+def test_grains_pressed_together_re_adhere_by_the_force_that_pressed_them_up_to_the_intact_bond(alpha, pull, apart):
+    """Two grains whose new contact gets no bond, pressed together by 2 N, then pulled by `pull`: with pressed
+    re-adhesion α they hold up to α × 2 N, and never past the intact bond (176 kPa × r² = 6.3 N); without it they
+    part at once."""
+    import os
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-c", PRESSED, str(alpha), "2.0", str(pull)], capture_output=True, text=True,
+                       cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["bond"] == pytest.approx(min(alpha * 2.0, 176e3 * 0.006 ** 2), rel=0.02)
+    assert out["apart"] is apart

@@ -21,8 +21,12 @@ SOIL_FIELDS = {
                                   "of the intact bonds' strength (1: moist soil re-adheres fully; 0: friction only)"),
     "bond_fragile": Field(0, 1, kind=int, meaning="1: a bond whose strength is exceeded breaks for good (friction only after); "
                           "0: it slides keeping its shear strength and breaks only when pulled apart"),
+    "pressed_adhesion": Field(0.0, 5.0, meaning="a contact holding less than the intact bond gains a bond of this "
+                              "times the greatest compressive force it has carried, up to the intact bond (moist soil "
+                              "re-adheres where it is pressed together; 0: not at all)"),
 }
-SOIL_DEFAULTS = {"new_contact_cohesion": 1.0, "bond_fragile": 1}   # optional in a soil config; a run's id leaves them out
+SOIL_DEFAULTS = {"new_contact_cohesion": 1.0, "bond_fragile": 1, "pressed_adhesion": 0.0}   # optional in a soil
+# config; a run's id leaves them out
 SOILS = ("clay", "loam", "sand")
 
 
@@ -43,6 +47,7 @@ class Soil:
     moisture: float          # mass fraction of water to dry soil, Table 2
     new_contact_cohesion: float = 1.0   # fraction of the intact bonds' strength a new contact gets
     bond_fragile: int = 1               # 1: bonds break when exceeded; 0: they slide and break only in tension
+    pressed_adhesion: float = 0.0       # bond gained per newton of the greatest compression a weaker contact carried
 
     @property
     def wet_density(self) -> float:
