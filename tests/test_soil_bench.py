@@ -17,10 +17,10 @@ from analysis.soil.bayes import HOLE_METRICS, calibrate, sigma_floor
 
 
 def made_up_bench(p: dict) -> dict:
-    """c, φ and a collapse slope, smooth in the four parameters, each leaning on a different mix of them."""
-    return {"c_kpa": 0.08 * p["normal_cohesion"] / 1e3 + 40 * p["new_contact_cohesion"],
+    """c, φ and a collapse slope, smooth in the parameters, each leaning on a different mix of them."""
+    return {"c_kpa": 0.08 * p["normal_cohesion"] / 1e3 + 5 * p["pressed_adhesion"],
             "phi_deg": 0.7 * p["friction_deg"] + 30 * p.get("rolling_friction", 0.1),
-            "collapse_deg": 0.6 * p["friction_deg"] + 300 * p["new_contact_cohesion"] + 20 * p.get("rolling_friction", 0.1)}
+            "collapse_deg": 0.6 * p["friction_deg"] + 25 * p["pressed_adhesion"] + 20 * p.get("rolling_friction", 0.1)}
 
 
 def around(values: dict, share: float = 0.1) -> dict:
@@ -87,19 +87,20 @@ def test_the_response_surfaces_find_the_region_a_made_up_planar_bench_puts_the_t
         x = bench.surface_terms(t)
         return pd.DataFrame({"c_kpa": 2 + 0.07 * x.bond_kpa + 40 * x.rolling_friction,
                              "phi_deg": 22 + 0.45 * x.friction_deg + 10 * x.rolling_friction,
-                             "collapse_deg": 20 + 2.5 * x.disturbed_bond_kpa + 0.5 * x.friction_deg + 50 * x.damping})
+                             "collapse_deg": 20 + 25 * x.pressed_adhesion + 0.5 * x.friction_deg + 50 * x.damping})
     clean = planar(table)
     for r in bench.RESPONSES:
         table[r] = clean[r] + rng.normal(0, 0.5, len(table))
     surf = bench.response_surfaces(table).set_index("response")
     assert surf.loc["c_kpa", "bond_kpa"] == pytest.approx(0.07, rel=0.05)
-    assert surf.loc["collapse_deg", "disturbed_bond_kpa"] == pytest.approx(2.5, rel=0.05)
+    assert surf.loc["collapse_deg", "pressed_adhesion"] == pytest.approx(25, rel=0.05)
+    assert (surf["disturbed_bond_kpa"] == 0).all()    # the share is fixed (0): no term
     assert surf.loc["collapse_deg", "damping"] == pytest.approx(50, rel=0.05) and surf.loc["c_kpa", "damping"] < 2
     assert (surf["r2"] > 0.95).all() and (surf["resid_sd"] < 1.0).all()
     unset = bench.response_surfaces(table.drop(columns="damping").assign(collapse_deg=clean.collapse_deg))
     assert (unset["damping"] == 0).all()          # evaluations that all ran at one damping give it no slope
-    truth = pd.DataFrame([{"normal_cohesion": 3e5, "friction_deg": 15.0, "new_contact_cohesion": 0.005,
-                           "rolling_friction": 0.05, "damping": 0.15}])
+    truth = pd.DataFrame([{"normal_cohesion": 2e5, "friction_deg": 12.0, "pressed_adhesion": 0.2,
+                           "rolling_friction": 0.1, "damping": 0.15}])
     at = planar(truth).iloc[0]
     targets = pd.DataFrame({"lo": at - 3, "hi": at + 3})
     region = bench.feasible_region(surf.reset_index(), targets, bounds)
@@ -118,7 +119,7 @@ def test_the_fixed_parameters_reach_the_scenes_and_name_the_evaluation():
 
 def test_the_batch_model_gives_the_one_by_one_posterior():
     bounds = bench.load_config()["bounds"]
-    truth = {"normal_cohesion": 300e3, "friction_deg": 22.0, "new_contact_cohesion": 0.02, "rolling_friction": 0.1}
+    truth = {"normal_cohesion": 300e3, "friction_deg": 22.0, "pressed_adhesion": 0.2, "rolling_friction": 0.1}
     one = calibrate(made_up_bench, around(made_up_bench(truth)), bounds, samples=12, iterations=2)
     many = calibrate(lambda rows: [made_up_bench(r) for r in rows], around(made_up_bench(truth)), bounds, samples=12,
                      iterations=2, batch=True)
@@ -157,7 +158,7 @@ def test_a_test_the_scene_stopped_is_kept_as_failed_and_weighs_nothing(tmp_path,
     monkeypatch.setattr(bench, "run_process", lambda cmd, sink: (1, ""))
     with pytest.raises(RuntimeError, match="exited 1"):
         bench.evaluate("clay", 2, params, cfg, tmp_path)
-    truth = {"normal_cohesion": 300e3, "friction_deg": 22.0, "new_contact_cohesion": 0.02, "rolling_friction": 0.1}
+    truth = {"normal_cohesion": 300e3, "friction_deg": 22.0, "pressed_adhesion": 0.2, "rolling_friction": 0.1}
     seen = []
 
     def half_untestable(p):
@@ -194,7 +195,7 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
         cones.append(args)
         bond = float(args[args.index("--cohesion") + 1])
         return {"cone_index_pa": 20 * made_up_bench({"normal_cohesion": bond, "friction_deg": 20.0,
-                                                     "new_contact_cohesion": 0.0, "rolling_friction": 0.1})["c_kpa"] * 1e3}
+                                                     "pressed_adhesion": 0.0, "rolling_friction": 0.1})["c_kpa"] * 1e3}
     monkeypatch.setattr(bench, "cone_scene", fake_cone)
     cfg = {**bench.load_config(), "samples": 10, "iterations": 2, "workers": 1}
     post = bench.calibrate("clay", cfg, tmp_path)
@@ -408,20 +409,24 @@ def test_the_deepest_point_lies_midway_in_made_up_planes_and_its_check_runs_it_o
     """`deepest_point`: on made-up planes the set whose responses lie farthest inside their targets in units of each
     plane's scatter; `calibrate --bench --check-deepest` runs that set
     on every check packing into <soil>-deepest-check.csv, leaving the posterior's check alone."""
-    bounds = {"normal_cohesion": (5e4, 1.5e5), "friction_deg": (10.0, 20.0), "new_contact_cohesion": (0.0, 0.01),
+    bounds = {"normal_cohesion": (5e4, 1.5e5), "friction_deg": (10.0, 20.0), "pressed_adhesion": (0.0, 0.6),
               "rolling_friction": (0.0, 0.3), "damping": (0.05, 0.3)}
     planes = pd.DataFrame([
-        {"response": "c_kpa", "intercept": 0.0, "bond_kpa": 0.2, "friction_deg": 0.0, "disturbed_bond_kpa": 0.0,
+        {"response": "c_kpa", "intercept": 0.0, "bond_kpa": 0.2, "friction_deg": 0.0, "pressed_adhesion": 0.0,
          "rolling_friction": 0.0, "resid_sd": 1.875},
-        {"response": "phi_deg", "intercept": 10.0, "bond_kpa": 0.0, "friction_deg": 1.0, "disturbed_bond_kpa": 0.0,
+        {"response": "phi_deg", "intercept": 10.0, "bond_kpa": 0.0, "friction_deg": 1.0, "pressed_adhesion": 0.0,
          "rolling_friction": 0.0, "resid_sd": 1.0},
         {"response": "collapse_deg", "intercept": 30.0, "bond_kpa": 0.0, "friction_deg": 0.0,
-         "disturbed_bond_kpa": 10.0, "rolling_friction": 0.0, "resid_sd": 1.0}])
+         "pressed_adhesion": 10.0, "rolling_friction": 0.0, "resid_sd": 1.0}])
     targets = pd.DataFrame({"lo": [10.0, 24.0, 30.0], "hi": [25.0, 32.0, 38.0]}, index=["c_kpa", "phi_deg", "collapse_deg"])
     d = bench.deepest_point(planes, targets, bounds)
     assert d["normal_cohesion"] == pytest.approx(87_500, rel=1e-6) and d["friction_deg"] == pytest.approx(18.0)
     assert d["c_kpa"] == pytest.approx(17.5) and d["phi_deg"] == pytest.approx(28.0)
-    assert d["margin_sd"] == pytest.approx(4.0) and d["new_contact_cohesion"] == pytest.approx(0.4 / 87.5)
+    assert d["margin_sd"] == pytest.approx(4.0) and d["pressed_adhesion"] == pytest.approx(0.4)
+    assert "new_contact_cohesion" not in d           # fixed, not calibrated
+    with_share = {**{k: v for k, v in bounds.items() if k != "pressed_adhesion"}, "new_contact_cohesion": (0.0, 0.01)}
+    share = bench.deepest_point(planes.rename(columns={"pressed_adhesion": "disturbed_bond_kpa"}), targets, with_share)
+    assert share["new_contact_cohesion"] == pytest.approx(0.4 / 87.5)   # a prior with the share: its bond a term
     assert d["collapse_deg"] == pytest.approx(34.0)
     pd.DataFrame([{"soil": "loam", **d}]).to_csv(tmp_path / "deepest.csv", index=False)
     cfg = {**bench.load_config(soil="loam"), "cone_target": False}
@@ -455,7 +460,7 @@ def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_
     monkeypatch.setattr(bench, "cone_scene",
                         lambda args, log: {"cone_index_pa": 2e3 * float(args[args.index("--cohesion") + 1]) / 1e3})
     cfg = bench.load_config(soil="loam")
-    sets = [{"normal_cohesion": b, "friction_deg": 16.0, "new_contact_cohesion": 0.005, "rolling_friction": 0.2,
+    sets = [{"normal_cohesion": b, "friction_deg": 16.0, "pressed_adhesion": 0.2, "rolling_friction": 0.2,
              "damping": 0.15} for b in (1.2e5, 0.8e5)]
     bench.probes("loam", sets[:1], cfg, tmp_path)
     table = bench.probes("loam", sets[1:], cfg, tmp_path)

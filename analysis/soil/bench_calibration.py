@@ -675,21 +675,29 @@ def write_posterior(soil: str, post: dict, check_result: dict, command: str, pat
     return path
 
 
-SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping")
+SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping", "pressed_adhesion")
 UNSET_DAMPING = 0.2    # the local damping an evaluation that does not set one runs at: every soil's configured value
 
 
-def surface_terms(table: pd.DataFrame) -> pd.DataFrame:
+def surface_terms(table: pd.DataFrame, fixed: dict | None = None) -> pd.DataFrame:
     """An evaluation's parameters as the response surfaces' terms: the intact bond and the bond a contact made
-    after disturbance gets (new-contact share × bond), both in kPa, the grains' friction, rolling friction and the
-    local damping (UNSET_DAMPING where the evaluation did not set it)."""
-    damping = table["damping"] if "damping" in table else pd.Series(UNSET_DAMPING, index=table.index)
+    after disturbance gets (new-contact share × bond), both in kPa, the grains' friction, rolling friction, the
+    local damping (UNSET_DAMPING where the evaluation did not set it) and the pressed re-adhesion (0 where not set).
+    A parameter the table lacks takes its `fixed` value (the calibration's [fixed]), the share 0 and the damping
+    UNSET_DAMPING failing that."""
+    fixed = {"new_contact_cohesion": 0.0, "damping": UNSET_DAMPING, "pressed_adhesion": 0.0, **(fixed or {})}
+
+    def column(name):
+        given = table[name] if name in table else pd.Series(np.nan, index=table.index)
+        return given.fillna(fixed[name]).astype(float)
+
     return pd.DataFrame({"bond_kpa": table["normal_cohesion"] / 1e3, "friction_deg": table["friction_deg"],
-                         "disturbed_bond_kpa": table["normal_cohesion"] * table["new_contact_cohesion"] / 1e3,
-                         "rolling_friction": table["rolling_friction"], "damping": damping.fillna(UNSET_DAMPING)})
+                         "disturbed_bond_kpa": table["normal_cohesion"] * column("new_contact_cohesion") / 1e3,
+                         "rolling_friction": table["rolling_friction"], "damping": column("damping"),
+                         "pressed_adhesion": column("pressed_adhesion")})
 
 
-def response_surfaces(table: pd.DataFrame) -> pd.DataFrame:
+def response_surfaces(table: pd.DataFrame, fixed: dict | None = None) -> pd.DataFrame:
     """Each bench response (and the cone index, where the table has it) fitted as a plane in SURFACE_TERMS over a
     soil's finished evaluations (least squares; a term that does not vary over them gets no slope):
     one row per response with its intercept, a coefficient per term, R² and the residual SD (the packing's and the
@@ -707,7 +715,7 @@ def response_surfaces(table: pd.DataFrame) -> pd.DataFrame:
     rows = []
     for r in (*RESPONSES, *(["cone_kpa"] if "cone_kpa" in tested else [])):     # the cone where the filter fitted it
         ok = tested.dropna(subset=[r])
-        terms = surface_terms(ok)
+        terms = surface_terms(ok, fixed)
         varied = [t for t in SURFACE_TERMS if terms[t].nunique() > 1]
         X = np.column_stack([np.ones(len(ok)), terms[varied].to_numpy(float)])
         y = ok[r].to_numpy(float)
@@ -722,7 +730,7 @@ def response_surfaces(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def feasible_region(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, n: int = 200_000,
-                    seed: int = 0) -> dict:
+                    seed: int = 0, fixed: dict | None = None) -> dict:
     """Where in the prior (`bounds`, uniform) the surfaces put every response inside its target's range: the
     share of the prior that does, and each parameter's 5, 50 and 95 % there (NaN when none does). Where the next
     stage's prior belongs, not a posterior: the planes' misfit is left out.
@@ -737,7 +745,7 @@ def feasible_region(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict,
     """
     rng = np.random.default_rng(seed)
     sample = pd.DataFrame({k: rng.uniform(lo, hi, n) for k, (lo, hi) in bounds.items()})
-    terms = surface_terms(sample).to_numpy(float)
+    terms = surface_terms(sample, fixed).to_numpy(float)
     inside = np.ones(n, bool)
     for s in surfaces.itertuples():
         pred = s.intercept + terms @ np.array([getattr(s, t, 0.0) for t in SURFACE_TERMS])
@@ -748,12 +756,13 @@ def feasible_region(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict,
     return out
 
 
-def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict) -> dict:
+def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, fixed: dict | None = None) -> dict:
     """The parameter set in `bounds` whose planes lie deepest inside every target's range, the depth counted in
     each plane's residual SD (the runs' own scatter with the plane's misfit): the largest t with every response
     at least t SDs from both ends of its range (scipy's linear programme in the planes' terms; the share bond, share
-    × intact bond, bounded by the share's range). Where a check on several packings has the best chance of finding
-    every response inside; t < 0 when the planes meet the targets nowhere in `bounds` (the least miss).
+    × intact bond, bounded by the share's range; a parameter `bounds` lacks held at its `fixed` value). Where a check
+    on several packings has the best chance of finding every response inside; t < 0 when the planes meet the
+    targets nowhere in `bounds` (the least miss).
 
     >>> s = pd.DataFrame([{"response": "c_kpa", "intercept": 0.0, "bond_kpa": 0.1, "friction_deg": 0.0,
     ...                    "disturbed_bond_kpa": 0.0, "rolling_friction": 0.0, "resid_sd": 1.0}])
@@ -764,25 +773,33 @@ def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict) -
     (5.0, 250, 25.0)
     """
     from scipy.optimize import linprog
-    (b_lo, b_hi), (s_lo, s_hi) = bounds["normal_cohesion"], bounds["new_contact_cohesion"]
-    # variables: the five terms and t (the damping held at UNSET_DAMPING where the prior does not calibrate it)
+    fixed = {"new_contact_cohesion": 0.0, "damping": UNSET_DAMPING, "pressed_adhesion": 0.0, **(fixed or {})}
+
+    def held(name):
+        return tuple(bounds.get(name, (fixed[name], fixed[name])))
+
+    (b_lo, b_hi), (s_lo, s_hi) = bounds["normal_cohesion"], held("new_contact_cohesion")
+    # variables: the six terms and t
     box = [(b_lo / 1e3, b_hi / 1e3), tuple(bounds["friction_deg"]), (0.0, None), tuple(bounds["rolling_friction"]),
-           tuple(bounds.get("damping", (UNSET_DAMPING, UNSET_DAMPING))), (None, None)]
+           held("damping"), held("pressed_adhesion"), (None, None)]
     planes = surfaces.set_index("response").reindex(columns=[*SURFACE_TERMS, "intercept", "resid_sd"])
     coefs = planes[list(SURFACE_TERMS)].fillna(0.0).to_numpy(float)
-    rows, rhs = [[-s_hi, 0, 1, 0, 0, 0], [s_lo, 0, -1, 0, 0, 0]], [0.0, 0.0]
+    rows, rhs = [[-s_hi, 0, 1, 0, 0, 0, 0], [s_lo, 0, -1, 0, 0, 0, 0]], [0.0, 0.0]
     for r, coef in zip(planes.itertuples(), coefs):
         lo, hi = targets.loc[r.Index, ["lo", "hi"]]
         rows += [[*-coef, r.resid_sd], [*coef, r.resid_sd]]
         rhs += [r.intercept - lo, hi - r.intercept]
-    out = linprog([0, 0, 0, 0, 0, -1], A_ub=rows, b_ub=rhs, bounds=box)
+    out = linprog([0, 0, 0, 0, 0, 0, -1], A_ub=rows, b_ub=rhs, bounds=box)
     if not out.success:
         raise RuntimeError(f"deepest_point: {out.message}")
-    bond, friction, disturbed, rolling, damping, margin = out.x
+    bond, friction, disturbed, rolling, damping, pressed, margin = out.x
     point = {"margin_sd": float(margin), "normal_cohesion": float(bond * 1e3), "friction_deg": float(friction),
-             "new_contact_cohesion": float(disturbed / bond) if bond > 0 else 0.0, "rolling_friction": float(rolling),
-             **({"damping": float(damping)} if "damping" in bounds else {})}
-    predicted = planes["intercept"].to_numpy(float) + coefs @ np.array([bond, friction, disturbed, rolling, damping])
+             **({"new_contact_cohesion": float(disturbed / bond) if bond > 0 else 0.0}
+                if "new_contact_cohesion" in bounds else {}), "rolling_friction": float(rolling),
+             **({"damping": float(damping)} if "damping" in bounds else {}),
+             **({"pressed_adhesion": float(pressed)} if "pressed_adhesion" in bounds else {})}
+    predicted = planes["intercept"].to_numpy(float) + coefs @ np.array([bond, friction, disturbed, rolling, damping,
+                                                                        pressed])
     return {**point, **dict(zip(planes.index, map(float, predicted)))}
 
 
@@ -798,15 +815,16 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
         if not tables[0].exists():
             continue
         table = pd.concat([pd.read_csv(t, comment="#") for t in tables if t.exists()])
-        surf = response_surfaces(table).assign(soil=soil)
+        own = load_config(soil=soil)
+        surf = response_surfaces(table, own["fixed"]).assign(soil=soil)
         rows.append(surf)
-        targets, own = load_targets(soil), load_config(soil=soil)
+        targets = load_targets(soil)
         if "cone_kpa" in set(surf.response):
             targets.loc["cone_kpa", ["lo", "hi"]] = cone_range(soil, own)
-        region = feasible_region(surf, targets, bounds)
+        region = feasible_region(surf, targets, bounds, fixed=own["fixed"])
         regions += [{"soil": soil, "parameter": k, "p05": v[0], "p50": v[1], "p95": v[2], "prior_share": region["share"]}
                     for k, v in region.items() if k != "share"]
-        deepest.append({"soil": soil, **deepest_point(surf, targets, own["bounds"])})
+        deepest.append({"soil": soil, **deepest_point(surf, targets, own["bounds"], own["fixed"])})
     if not rows:
         return []
     paths = [Path(out_dir) / "surfaces.csv", Path(out_dir) / "feasible.csv", Path(out_dir) / "deepest.csv"]
