@@ -215,6 +215,20 @@ def test_bond_fragile_is_a_switch_in_a_config_and_in_an_override(tmp_path):
         load_soil(tmp_path / "clay.toml")
 
 
+def test_pressed_re_adhesion_is_off_unless_set_and_leaves_a_runs_id_as_it_was():
+    """A soil without `pressed_adhesion` has none (0) and plans the run it planned before the key existed; set, it
+    names a run of its own; out of its range it is refused with the range."""
+    from analysis.core.run_spec import plan
+    from analysis.core.soil_config import load_soil, soil_with
+    assert load_soil("clay").pressed_adhesion == 0.0
+    before = plan("clay", "validation_medium", seed=1)
+    assert "pressed_adhesion" not in before["soil"]
+    assert plan("clay", "validation_medium", seed=1, overrides={"pressed_adhesion": 0.0})["id"] == before["id"]
+    assert plan("clay", "validation_medium", seed=1, overrides={"pressed_adhesion": 0.2})["id"] != before["id"]
+    with pytest.raises(ConfigError, match=r"pressed_adhesion = 7.*out of range.*allowed"):
+        soil_with(load_soil("clay"), {"pressed_adhesion": 7})
+
+
 @pytest.mark.parametrize("value", [math.inf, -math.inf, math.nan])
 def test_a_whole_number_key_refuses_inf_and_nan_with_its_range(value):
     from analysis.core.config import SEED
