@@ -612,12 +612,14 @@ boot(1)
 from yade import O, utils
 from analysis.core.soil_config import load_soil, soil_with
 from scripts import soil as part
-alpha, press, pull = map(float, sys.argv[1:])
+alpha, press, pull = map(float, sys.argv[1:4])
 soil = soil_with(load_soil("clay"), {"normal_cohesion": 176e3, "shear_cohesion": 176e3, "bond_fragile": 0,
                                      "new_contact_cohesion": 0.0, "pressed_adhesion": alpha})
 mat = O.materials.append(part.soil_material(soil, density=2650.0))
 O.materials[mat].normalCohesion = O.materials[mat].shearCohesion = 0.0    # a new contact: no bond of its own
-a = O.bodies.append(utils.sphere((0, 0, 0), 0.006, material=mat, fixed=True))
+tool = part.steel_material(soil) if len(sys.argv) > 4 else mat        # a tool's steel sphere in place of a grain
+a = O.bodies.append(utils.sphere((0, 0, 0), 0.006, material=O.materials.append(tool) if tool is not mat else mat,
+                                 fixed=True))
 b = O.bodies.append(utils.sphere((0, 0, 0.011999), 0.006, material=mat))    # touching: 1 µm
 O.engines = part.engines(0.3, cohesion_on_new_contacts=True, gravity=(0, 0, 0), extra=part.pressed_adhesion(O, soil))
 O.dt = 0.2 * utils.PWaveTimeStep()
@@ -650,3 +652,17 @@ def test_grains_pressed_together_re_adhere_by_the_force_that_pressed_them_up_to_
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out["bond"] == pytest.approx(min(alpha * 2.0, 176e3 * 0.006 ** 2), rel=0.02)
     assert out["apart"] is apart
+
+
+@pytest.mark.scene
+def test_a_tools_steel_sphere_pressed_into_a_grain_never_re_adheres():
+    """A punch's or cone's tip is a steel sphere: pressed into a grain by 2 N at α 0.5, the contact gets no bond,
+    and the least pull parts them."""
+    import os
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-c", PRESSED, "0.5", "2.0", "0.05", "steel"], capture_output=True, text=True,
+                       cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["bond"] == 0.0 and out["apart"] is True
