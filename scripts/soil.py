@@ -135,7 +135,7 @@ def press_bonds(O, alpha: float, normal: float, shear: float, grain) -> int:
 
 def pressed_adhesion(O, soil, every: int = PRESS_EVERY) -> list:
     """The engine of the pressed re-adhesion (module doc) when the soil has one (`pressed_adhesion` > 0), else none:
-    every `every` steps a pass of press_bonds over the soil's spheres there are now. PyRunner evaluates its command in
+    every `every` steps a pass of press_bonds over the soil's spheres. PyRunner evaluates its command in
     YADE's global namespace: the pass is put there under a name no engine's label takes."""
     if not soil.pressed_adhesion:
         return []
@@ -143,9 +143,13 @@ def pressed_adhesion(O, soil, every: int = PRESS_EVERY) -> list:
     import numpy as np
     from yade import PyRunner, Sphere
 
-    def press():                           # the soil's grains: not a tool's steel spheres (a punch's or cone's tip)
-        grain = np.array([b is not None and isinstance(b.shape, Sphere) and b.material.label == "soil"
-                          for b in O.bodies], bool)
+    grain = np.zeros(0, bool)
+
+    def press():
+        nonlocal grain
+        if len(grain) != len(O.bodies):    # the soil's grains, not a tool's steel spheres (a punch's or cone's tip);
+            grain = np.array([b is not None and isinstance(b.shape, Sphere) and b.material.label == "soil"
+                              for b in O.bodies], bool)     # found again only when bodies come or go
         press_bonds(O, soil.pressed_adhesion, soil.normal_cohesion, soil.shear_cohesion, grain)
 
     builtins.holes_press_bonds = press

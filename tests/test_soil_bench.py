@@ -617,9 +617,8 @@ soil = soil_with(load_soil("clay"), {"normal_cohesion": 176e3, "shear_cohesion":
                                      "new_contact_cohesion": 0.0, "pressed_adhesion": alpha})
 mat = O.materials.append(part.soil_material(soil, density=2650.0))
 O.materials[mat].normalCohesion = O.materials[mat].shearCohesion = 0.0    # a new contact: no bond of its own
-tool = part.steel_material(soil) if len(sys.argv) > 4 else mat        # a tool's steel sphere in place of a grain
-a = O.bodies.append(utils.sphere((0, 0, 0), 0.006, material=O.materials.append(tool) if tool is not mat else mat,
-                                 fixed=True))
+fixed_one = O.materials.append(part.steel_material(soil)) if len(sys.argv) > 4 else mat   # a tool's steel sphere
+a = O.bodies.append(utils.sphere((0, 0, 0), 0.006, material=fixed_one, fixed=True))
 b = O.bodies.append(utils.sphere((0, 0, 0.011999), 0.006, material=mat))    # touching: 1 µm
 O.engines = part.engines(0.3, cohesion_on_new_contacts=True, gravity=(0, 0, 0), extra=part.pressed_adhesion(O, soil))
 O.dt = 0.2 * utils.PWaveTimeStep()

@@ -6,8 +6,8 @@ where they came from (their places in the settled bed). No YADE.
 The punch stands vertical at its deepest, at the hole's layout x, the strip's middle across it. Its volume there, a
 cylinder of diameter D from TOP mm below the undisturbed surface (under the ring the sleeve's plate presses) and
 its end cone of height h down to the tip at the penetration, was the punch's own: a grain lying wholly inside it
-now came back after the punch left. `refill` is those grains' solid volume over the solid volume the same cylinder held in
-the settled bed: 0 when the hole stands open, 1 when it is as full as the bed was. A grain came `from_ring` when it
+now came back after the punch left. `refill` is those grains' solid volume over the solid volume the same volume held
+in the settled bed: 0 when the hole stands open, 1 when it is as full as the bed was. A grain came `from_ring` when it
 started outside the punch's radius, `from_above` when it started more than a grain diameter higher than it lies now;
 `origin_depth` and `origin_r` are the refilling grains' median start below the surface and from the axis.
 """
@@ -48,10 +48,10 @@ def refill_hole(pos, pos0, rad, x: float, y: float, z_surface: float, D: float, 
     now, before = inside(pos), inside(pos0)
     volume = rad ** 3
     r0 = np.hypot(pos0[now, 0] - x, pos0[now, 1] - y)
-    rose = pos0[now, 2] - pos[now, 2]                      # how far each fell (+) since the bed settled
+    fell = pos0[now, 2] - pos[now, 2]                      # how far each fell since the bed settled
     return {"grains": int(now.sum()),
             "refill": float(volume[now].sum() / volume[before].sum()) if before.any() else np.nan,
-            "from_ring": int((r0 > D / 2).sum()), "from_above": int((rose > 2 * rad[now]).sum()),
+            "from_ring": int((r0 > D / 2).sum()), "from_above": int((fell > 2 * rad[now]).sum()),
             "origin_depth": float(np.median(z_surface - pos0[now, 2])) if now.any() else np.nan,
             "origin_r": float(np.median(r0)) if now.any() else np.nan}
 
@@ -59,8 +59,9 @@ def refill_hole(pos, pos0, rad, x: float, y: float, z_surface: float, D: float, 
 def refill_run(folder) -> pd.DataFrame:
     """One row per measured hole of a finished run (module doc)."""
     cfg, summary, state = load_run(folder)
-    if "z_surface" not in state:
-        raise ValueError(f"{folder}: state.npz has no z_surface: allowed a disk run's folder")
+    if "z_surface" not in state or "disk" not in cfg:
+        raise ValueError(f"{folder}: not a disk run with its undisturbed level (state.npz z_surface): allowed a disk "
+                         "run's folder")
     pos, pos0, rad = state["pos"] * 1000, state["initial_pos"] * 1000, state["radius"] * 1000
     D = hole_tool(cfg)[0]
     y = cfg["bed_size_mm"][1] / 2

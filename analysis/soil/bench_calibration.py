@@ -677,6 +677,8 @@ def write_posterior(soil: str, post: dict, check_result: dict, command: str, pat
 
 SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping", "pressed_adhesion")
 UNSET_DAMPING = 0.2    # the local damping an evaluation that does not set one runs at: every soil's configured value
+UNSET = {"new_contact_cohesion": 0.0, "damping": UNSET_DAMPING, "pressed_adhesion": 0.0}   # a term's value where
+# neither an evaluation nor the calibration's [fixed] gives one
 
 
 def surface_terms(table: pd.DataFrame, fixed: dict | None = None) -> pd.DataFrame:
@@ -685,7 +687,7 @@ def surface_terms(table: pd.DataFrame, fixed: dict | None = None) -> pd.DataFram
     local damping (UNSET_DAMPING where the evaluation did not set it) and the pressed re-adhesion (0 where not set).
     A parameter the table lacks takes its `fixed` value (the calibration's [fixed]), the share 0 and the damping
     UNSET_DAMPING failing that."""
-    fixed = {"new_contact_cohesion": 0.0, "damping": UNSET_DAMPING, "pressed_adhesion": 0.0, **(fixed or {})}
+    fixed = {**UNSET, **(fixed or {})}
 
     def column(name):
         given = table[name] if name in table else pd.Series(np.nan, index=table.index)
@@ -773,7 +775,7 @@ def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, f
     (5.0, 250, 25.0)
     """
     from scipy.optimize import linprog
-    fixed = {"new_contact_cohesion": 0.0, "damping": UNSET_DAMPING, "pressed_adhesion": 0.0, **(fixed or {})}
+    fixed = {**UNSET, **(fixed or {})}
 
     def held(name):
         return tuple(bounds.get(name, (fixed[name], fixed[name])))
