@@ -665,3 +665,46 @@ def test_a_tools_steel_sphere_pressed_into_a_grain_never_re_adheres():
     assert r.returncode == 0, r.stderr[-2000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out["bond"] == 0.0 and out["apart"] is True
+
+
+def test_the_cone_screen_runs_no_cone_where_the_bench_already_misses_and_takes_weight_from_no_sample(tmp_path,
+                                                                                                       monkeypatch):
+    """`cone_screen_sd`: an evaluation whose shear box or collapse test reads a response more than that many packing
+    SDs outside its range gets no cone (NaN in the table, `cone_screened`); the filter weighs its cone as met, so
+    with a cone that reads inside everywhere the posterior is the one every cone would give; 0 runs every cone; the
+    check never screens."""
+    def fake(soil, seed, params, cfg, out_dir):
+        return {"soil": soil, "seed": seed, **params, **made_up_bench(params), "tau_peak_kpa": [], "wall_s": 0.0}
+    monkeypatch.setattr(bench, "evaluate", fake)
+    coned = []
+    cfg = {**bench.load_config(soil="loam"), "samples": 10, "iterations": 2, "workers": 1}
+
+    def met(soil, params, cfg, out_dir, seed=None):                 # the cone's range's middle: met everywhere
+        coned.append(params["normal_cohesion"])
+        return {"mean": sum(bench.cone_range("loam", cfg)) / 2}
+    monkeypatch.setattr(bench, "cone_check", met)
+    assert cfg["cone_screen_sd"] == 3 and bench.load_config(soil="clay")["cone_screen_sd"] == 0
+    posts = {}
+    for k in (3, 0):
+        coned.clear()
+        posts[k] = bench.calibrate("loam", {**cfg, "cone_screen_sd": k}, tmp_path / str(k))
+        table = pd.read_csv(tmp_path / str(k) / "loam.csv", comment="#")
+        ranges, scatter = bench.target_ranges("loam", cfg), cfg["packing_scatter"]
+        far = np.any([np.maximum(ranges[r][0] - table[r], table[r] - ranges[r][1]) > 3 * scatter[r]
+                      for r in bench.RESPONSES], axis=0)
+        if k:
+            assert far.any() and (~far).any()                    # the made-up responses put some far out, some not
+            assert table.loc[far, "cone_kpa"].isna().all() and table.loc[far, "cone_screened"].all()
+            assert table.loc[~far, "cone_kpa"].notna().all() and len(coned) == (~far).sum()
+        else:
+            assert table["cone_kpa"].notna().all() and len(coned) == len(table)
+    for name in posts[0]["mean"]:
+        assert posts[3]["mean"][name] == pytest.approx(posts[0]["mean"][name])
+    coned.clear()
+    bench.check("loam", posts[3], {**cfg, "cone_screen_sd": 3, "check_seeds": [1, 2]}, tmp_path / "3")
+    assert len(coned) == 2
+    text = bench.CONFIG.read_text()
+    for bad in ("-1", "11", "true", '"3"'):
+        (tmp_path / "b.toml").write_text(text.replace("cone_screen_sd = 0 ", f"cone_screen_sd = {bad} ", 1))
+        with pytest.raises(ConfigError, match="cone_screen_sd"):
+            bench.load_config(tmp_path / "b.toml")

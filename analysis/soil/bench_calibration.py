@@ -86,6 +86,13 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
     unknown = sorted((set(fixed) | set(bounds)) - set(SOIL_FIELDS))
     if unknown:
         raise ConfigError(f"{path}: {', '.join(unknown)}: allowed soil contact parameters {', '.join(SOIL_FIELDS)}")
+    screen_sd = bench.get("cone_screen_sd", 0)
+    if not isinstance(screen_sd, (int, float)) or isinstance(screen_sd, bool) or not 0 <= screen_sd <= 10:
+        raise ConfigError(f"{path}: cone_screen_sd = {screen_sd!r}: allowed 0 (every evaluation's cone runs) to 10 "
+                          "packing-scatter SDs")
+    if screen_sd and not cfg.get("packing_scatter"):
+        raise ConfigError(f"{path}: cone_screen_sd = {screen_sd}: allowed only with a [packing_scatter] section, the "
+                          "SDs it counts in")
     if not isinstance(bench.get("cone_target", False), bool):
         raise ConfigError(f"{path}: cone_target = {bench['cone_target']!r}: allowed true or false")
     cone = cfg.get("cone_check")
@@ -215,14 +222,17 @@ def _shear_peaks(folder: Path) -> list[float]:
 
 
 def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out_dir: Path = BENCH_DIR,
-                 cfgs: list[dict] | None = None, with_cone: bool = False) -> list[dict]:
+                 cfgs: list[dict] | None = None, with_cone: bool = False, screen=None) -> list[dict]:
     """Every (seed, parameters) evaluation, `cfg["workers"]` at a time, with progress and an ETA; `cfgs`: each
     evaluation's own bench settings in place of cfg (the size check's two boxes); `with_cone`: each tested one's
-    cone index too, on the cone's bed of the same packing seed (`cone_check`)."""
+    cone index too, on the cone's bed of the same packing seed (`cone_check`), except where `screen(row)` says
+    its bench responses already put it out (`cone_kpa` NaN, `cone_screened` true)."""
     def one(i):
         seed, params = seeds_params[i]
         row = evaluate(soil, seed, params, cfgs[i] if cfgs else cfg, out_dir)
         if with_cone and not row.get("failed"):
+            if screen is not None and screen(row):
+                return {**row, "cone_kpa": math.nan, "cone_screened": True}
             row = {**row, "cone_kpa": cone_check(soil, params, cfg, out_dir, seed)["mean"]}
         return row
 
@@ -263,14 +273,17 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
         return pd.DataFrame([{**r, "iteration": i + 1} for i, batch in enumerate(history) for r in batch]) \
             .drop(columns=["tau_peak_kpa"], errors="ignore")
 
+    ranges = target_ranges(soil, cfg)
+    screen = cone_screen(ranges, cfg)
+
     def model_batch(rows: list[dict]) -> list[dict]:
-        out = evaluate_all(soil, [(seed, p) for p in rows], cfg, out_dir, with_cone=bool(cfg.get("cone_target")))
+        out = evaluate_all(soil, [(seed, p) for p in rows], cfg, out_dir, with_cone=bool(cfg.get("cone_target")),
+                           screen=screen)
         history.append(out)
         atomic_csv(finished(), running, f"./holes calibrate --soil {soil} --bench: the filter's finished iterations, "
                    f"until its posterior is drawn ({len(history)} of {cfg['iterations']})")
-        return out
+        return [screened_as_met(r, ranges) for r in out]
 
-    ranges = target_ranges(soil, cfg)
     post = bayes(model_batch, ranges, cfg["bounds"], samples=int(cfg["samples"]), iterations=int(cfg["iterations"]),
                  batch=True, scatter=cfg.get("packing_scatter"))
     table = finished()
@@ -292,6 +305,39 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     atomic_write(Path(out_dir) / f"{soil}-posterior.json", json.dumps(summary, indent=1))
     running.unlink(missing_ok=True)
     return summary
+
+
+def cone_screen(ranges: dict, cfg: dict):
+    """The filter's cone screen: a function telling whether an evaluation's bench responses already put it more than
+    [bench] cone_screen_sd packing-scatter SDs ([packing_scatter]) outside one of its ranges, so that its cone (two
+    thirds of an evaluation's cost) is not run; None where the soil's cone is no target or cone_screen_sd is 0.
+
+    >>> screen = cone_screen({"c_kpa": (20, 35), "phi_deg": (20, 30), "collapse_deg": (30, 38)},
+    ...                      {"cone_target": True, "cone_screen_sd": 3, "packing_scatter": {"c_kpa": 5.1,
+    ...                       "phi_deg": 1.8, "collapse_deg": 1.6, "cone_kpa": 42}})
+    >>> screen({"c_kpa": 26.1, "phi_deg": 24.4, "collapse_deg": 39.7}), screen({"c_kpa": 28, "phi_deg": 32.6,
+    ...                                                                         "collapse_deg": 46.1})
+    (False, True)
+    """
+    k = float(cfg.get("cone_screen_sd", 0))
+    if not cfg.get("cone_target") or k == 0:
+        return None
+    scatter = cfg["packing_scatter"]
+
+    def out(row: dict) -> bool:
+        return any(max(ranges[r][0] - row[r], row[r] - ranges[r][1]) > k * scatter[r] for r in RESPONSES)
+    return out
+
+
+def screened_as_met(row: dict, ranges: dict) -> dict:
+    """An evaluation as the filter weighs it: a screened cone (`cone_screen`) counts as met, in the middle of its
+    range, the most it could give, so the screen never takes weight from a sample, only the cone's cost; the
+    evaluation's table keeps its cone NaN.
+
+    >>> screened_as_met({"cone_kpa": float("nan"), "cone_screened": True}, {"cone_kpa": (382.5, 517.5)})["cone_kpa"]
+    450.0
+    """
+    return {**row, "cone_kpa": sum(ranges["cone_kpa"]) / 2} if row.get("cone_screened") else row
 
 
 def weighted_intervals(table: pd.DataFrame, names: list[str], w) -> dict:
