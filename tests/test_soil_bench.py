@@ -708,3 +708,22 @@ def test_the_cone_screen_runs_no_cone_where_the_bench_already_misses_and_takes_w
         (tmp_path / "b.toml").write_text(text.replace("cone_screen_sd = 0 ", f"cone_screen_sd = {bad} ", 1))
         with pytest.raises(ConfigError, match="cone_screen_sd"):
             bench.load_config(tmp_path / "b.toml")
+
+
+def test_while_a_filter_runs_the_report_draws_its_planes_and_profiles_over_the_finished_iterations(tmp_path):
+    """No soil's filter finished: `calibration-report` fits the planes over <soil>-running.csv and draws each
+    parameter's margin profile; a parameter no made-up response feels profiles flat, a pinned one falls off."""
+    rng = np.random.default_rng(3)
+    cfg = bench.load_config(soil="clay")
+    rows = [{k: rng.uniform(lo, hi) for k, (lo, hi) in cfg["bounds"].items()} for _ in range(30)]
+    table = pd.DataFrame([{**p, **{r: v + rng.normal(0, 1) for r, v in made_up_bench(p).items()},   # a packing's
+                           "cone_kpa": 3.0 * p["normal_cohesion"] / 1e3 + 100 + rng.normal(0, 20),   # scatter
+                           "iteration": 1} for p in rows])
+    table.to_csv(tmp_path / "clay-running.csv", index=False)
+    names = [p.name for p in bench.report(tmp_path)]
+    assert names == ["surfaces.csv", "feasible.csv", "deepest.csv", "profiles.csv", "profiles.png"]
+    profile = pd.read_csv(tmp_path / "profiles.csv", comment="#")
+    assert set(profile["parameter"]) == set(cfg["bounds"]) and "clay-running.csv" in \
+        (tmp_path / "profiles.csv").read_text().splitlines()[0]
+    spread = profile.groupby("parameter")["margin_sd"].agg(lambda m: m.max() - m.min())
+    assert spread["damping"] < 0.2 * spread["normal_cohesion"]     # made_up_bench has no damping term

@@ -622,8 +622,8 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     soils = [s for s in ("clay", "loam", "sand") if (Path(out_dir) / f"{s}.csv").exists()]
-    if not soils:
-        return []
+    if not soils:                     # no filter finished: the planes over the running ones' finished iterations
+        return surfaces_report(out_dir)
     names = list(load_config()["bounds"])
     colours = {"clay": "tab:brown", "loam": "tab:olive", "sand": "tab:orange"}
     fig, axes = plt.subplots(len(soils), len(names), figsize=(4 * len(names), 2.6 * len(soils)), squeeze=False)
@@ -851,18 +851,79 @@ def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, f
     return {**point, **dict(zip(planes.index, map(float, predicted)))}
 
 
+def margin_profile(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, fixed: dict | None = None,
+                   points: int = 9) -> pd.DataFrame:
+    """How far the bench tests pin each calibrated parameter: the planes' deepest margin (`deepest_point`, in
+    residual SDs) with the parameter held at each of `points` values across its prior and the others free. A
+    profile that stays near its top across the prior is a parameter the others make up for, one the bench does not
+    identify; one that falls below 0 on both sides of a narrow window is pinned.
+
+    >>> s = pd.DataFrame([{"response": "c_kpa", "intercept": 0.0, "bond_kpa": 0.1, "friction_deg": 0.0,
+    ...                    "disturbed_bond_kpa": 0.0, "rolling_friction": 0.0, "resid_sd": 1.0}])
+    >>> t = pd.DataFrame({"lo": [20.0], "hi": [30.0]}, index=["c_kpa"])
+    >>> p = margin_profile(s, t, {"normal_cohesion": (0, 1e6), "friction_deg": (10, 30),
+    ...                           "rolling_friction": (0, 0.3)}, points=5)
+    >>> p[p.parameter == "normal_cohesion"].margin_sd.round(1).tolist()     # c 0, 25, 50, 75, 100 kPa: pinned
+    [-20.0, 5.0, -20.0, -45.0, -70.0]
+    >>> p[p.parameter == "friction_deg"].margin_sd.round(1).tolist()        # no response feels it: flat
+    [5.0, 5.0, 5.0, 5.0, 5.0]
+    """
+    rows = []
+    for name, (lo, hi) in bounds.items():
+        for value in np.linspace(lo, hi, points):
+            d = deepest_point(surfaces, targets, {**bounds, name: (float(value), float(value))}, fixed)
+            rows.append({"parameter": name, "value": float(value), "margin_sd": d["margin_sd"]})
+    return pd.DataFrame(rows)
+
+
+def profile_plot(profile: pd.DataFrame, path: Path) -> Path:
+    """The margin profiles, one panel per parameter, a line per soil; above 0 the planes meet every target."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    names = list(dict.fromkeys(profile["parameter"]))
+    fig, axes = plt.subplots(1, len(names), figsize=(3.4 * len(names), 3.0), squeeze=False, sharey=True)
+    colours = {"clay": "tab:brown", "loam": "tab:olive", "sand": "tab:orange"}
+    for ax, name in zip(axes[0], names):
+        for soil, rows in profile[profile["parameter"] == name].groupby("soil"):
+            ax.plot(rows["value"], rows["margin_sd"], "o-", ms=3, c=colours.get(soil), label=soil)
+        ax.axhline(0, c="0.5", lw=0.8)
+        ax.set_xlabel(name)
+    axes[0][0].set_ylabel("deepest margin, residual SDs")
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def soil_evaluations(soil: str, out_dir: Path = BENCH_DIR) -> tuple[pd.DataFrame, str] | None:
+    """A soil's filter's and check's evaluations as one table, and where they come from: its finished filter
+    (<soil>.csv with <soil>-check.csv), or while its filter runs, the iterations it has finished
+    (<soil>-running.csv); None when it has neither."""
+    tables = [Path(out_dir) / f"{soil}{part}.csv" for part in ("", "-check")]
+    if not tables[0].exists():
+        tables = [Path(out_dir) / f"{soil}-running.csv"]
+    found = [t for t in tables if t.exists()]
+    if not found:
+        return None
+    return pd.concat([pd.read_csv(t, comment="#") for t in found]), " and ".join(t.name for t in found)
+
+
 def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> list[Path]:
-    """Every calibrated soil's response surfaces over its filter's and check's evaluations (surfaces.csv) and
-    where they meet all its targets (the cone's too, where the filter fitted it) inside the common prior
-    (feasible.csv)."""
+    """Every calibrated soil's response surfaces over its filter's and check's evaluations, or over the iterations
+    its running filter has finished (surfaces.csv), where they meet all its targets (the cone's too, where the
+    filter fitted it) inside the common prior (feasible.csv), the set they put deepest inside them (deepest.csv) and
+    how far they pin each parameter (`margin_profile`: profiles.csv and .png)."""
     bounds = bounds or load_config()["bounds"]
     from analysis.core.soil_config import SOILS
-    rows, regions, deepest = [], [], []
+    rows, regions, deepest, profiles, sources = [], [], [], [], []
     for soil in SOILS:
-        tables = [Path(out_dir) / f"{soil}{part}.csv" for part in ("", "-check")]
-        if not tables[0].exists():
+        found = soil_evaluations(soil, out_dir)
+        if found is None:
             continue
-        table = pd.concat([pd.read_csv(t, comment="#") for t in tables if t.exists()])
+        table, source = found
+        sources.append(f"{soil}: {source}")
         own = load_config(soil=soil)
         surf = response_surfaces(table, own["fixed"]).assign(soil=soil)
         rows.append(surf)
@@ -873,10 +934,16 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
         regions += [{"soil": soil, "parameter": k, "p05": v[0], "p50": v[1], "p95": v[2], "prior_share": region["share"]}
                     for k, v in region.items() if k != "share"]
         deepest.append({"soil": soil, **deepest_point(surf, targets, own["bounds"], own["fixed"])})
+        profiles.append(margin_profile(surf, targets, own["bounds"], own["fixed"]).assign(soil=soil))
     if not rows:
         return []
-    paths = [Path(out_dir) / "surfaces.csv", Path(out_dir) / "feasible.csv", Path(out_dir) / "deepest.csv"]
-    note = "./holes calibrate --soil S --bench (its report)"
+    paths = [Path(out_dir) / "surfaces.csv", Path(out_dir) / "feasible.csv", Path(out_dir) / "deepest.csv",
+             Path(out_dir) / "profiles.csv"]
+    note = f"./holes calibration-report, over {'; '.join(sources)}"
+    profile = pd.concat(profiles)[["soil", "parameter", "value", "margin_sd"]]
+    atomic_csv(profile.round(5), paths[3], f"{note}; in the soil's own prior, the planes' deepest margin (residual SDs) "
+               "with one parameter held at each value and the others free: flat where the bench does not pin it")
+    paths.append(profile_plot(profile, Path(out_dir) / "profiles.png"))
     atomic_csv(pd.DataFrame(deepest).round(5), paths[2],
                f"{note}; in the soil's own prior, the parameter set whose planes lie deepest inside every target, "
                "margin_sd its depth in the planes' residual SDs, and the responses the planes predict there")
