@@ -47,9 +47,7 @@ def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None
     wall0 = time.time()
     L, W, D = meta["size_m"]
     r, top0 = data.r, data.top
-    disturbed = soil_with(soil, {"normal_cohesion": soil.new_contact_cohesion * soil.normal_cohesion,
-                                 "shear_cohesion": soil.new_contact_cohesion * soil.shear_cohesion})
-    mat = O.materials.append(part.soil_material(disturbed, density=meta["grain_density"], cohesive=True))
+    mat = O.materials.append(part.soil_material(part.disturbed(soil), density=meta["grain_density"], cohesive=True))
     smooth = O.materials.append(part.steel_material(soil, friction_deg=0.0))
     rough = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=False))  # soil on soil:
     # its friction and rolling resistance, never bonded (a floor without rolling resistance lets grains roll on

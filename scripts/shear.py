@@ -3,7 +3,9 @@
     .venv/bin/python scripts/shear.py --soil clay --resolution medium --size 150,150,100 --stress 50,100,200
 
 Parts: bed (scripts/beds.py; intact bonds on the settled contacts; a contact made later gets the soil's
-new_contact_cohesion of their strength, as in the tool scenes), box (the lower half fixed, the upper half's four
+new_contact_cohesion of their strength, as in the tool scenes; `--remoulded`: every contact a new one, as in the
+collapse column, bonded only as the lid's load presses it (pressed_adhesion), a sample packed from disturbed soil
+as a laboratory's remoulded one is), box (the lower half fixed, the upper half's four
 thin walls pushed along +x at a constant speed, the shear plane at mid-height with a gap between the frames of
 GAP × the smallest grain's diameter, so no grain is squeezed out through it, and the lower half's rim reaching
 beyond it as far as the upper half travels, so the soil the upper half carries past the lower one rests on it
@@ -43,8 +45,9 @@ CHUNK = 50                     # steps between two records of the curve (0.09 mm
 
 
 def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, threads: int = 1,
-        overrides: dict | None = None, quiet: bool = False) -> dict:
-    """Consolidate the bed's sample under σn = stress_kpa, shear it, return its curve's summary."""
+        overrides: dict | None = None, quiet: bool = False, remoulded: bool = False) -> dict:
+    """Consolidate the bed's sample (remoulded: every contact a new one) under σn = stress_kpa, shear it, return its
+    curve's summary."""
     from scripts.beds import bench_start
     soil, meta, data, log = bench_start(bed_path, soil_name, overrides, threads, quiet)
     import numpy as np
@@ -54,7 +57,8 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     wall0 = time.time()
     L, W, D = meta["size_m"]
     r, top = data.r, data.top
-    mat = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=True))
+    mat = O.materials.append(part.soil_material(part.disturbed(soil) if remoulded else soil,
+                                                density=meta["grain_density"], cohesive=True))
     steel = O.materials.append(part.steel_material(soil, friction_deg=0.0))     # smooth: no wall friction wedges
     grains = list(O.bodies.append([utils.sphere(tuple(p), rr, material=mat)
                                    for p, rr in zip(data.pos, data.radius)]))
@@ -120,6 +124,7 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     d[:, 3:5] = np.abs(d[:, 3:5])          # the contacts' sums, whichever body YADE books them on
     tail = d[int(0.8 * len(d)):]
     return {"bed": meta["key"], "soil": soil.name, "radius_m": r, "size_m": [L, W, D], "stress_kpa": stress_kpa,
+            "remoulded": remoulded,
             "tau_peak_kpa": float(d[:, 1].max() / 1e3), "tau_residual_kpa": float(tail[:, 1].mean() / 1e3),
             "tau_plane_peak_kpa": float(d[:, 3].max() / 1e3), "tau_plane_residual_kpa": float(tail[:, 3].mean() / 1e3),
             "sigma_plane_mean_kpa": float(d[:, 4].mean() / 1e3),
@@ -177,6 +182,8 @@ def arguments():
     p.add_argument("--stress", type=option("--stress", STRESS, many=True), default=[50.0, 100.0, 200.0],
                    help="normal stresses, kPa (one sample each; default 50,100,200)")
     p.add_argument("--speed", type=option("--speed", SPEED), default=0.05, help="shearing speed, m/s (default 0.05)")
+    p.add_argument("--remoulded", action="store_true",
+                   help="every contact of the sample a new one, bonded only as the load presses it (a remoulded sample)")
     bed.add_test_set(p)
     p.add_argument("--out", type=folder("--out"), help="where the result goes (default results/soils/shear)")
     return p
@@ -190,7 +197,7 @@ def main(argv=None) -> int:
         test = {**parse_overrides(a.set), **parse_overrides(a.test_set)}
         soil_with(load_soil(a.soil), test)              # every override checked before a bed settles
         bed_path = bed.bed_from_args(a)
-        rows = [run(bed_path, a.soil, s, a.speed, a.threads, test) for s in stresses]
+        rows = [run(bed_path, a.soil, s, a.speed, a.threads, test, remoulded=a.remoulded) for s in stresses]
     except (ConfigError, ValueError) as e:
         print(f"shear: {e}", file=sys.stderr)
         return 2
@@ -200,8 +207,9 @@ def main(argv=None) -> int:
     from analysis.soil.shear import fit_tests
     fit = fit_tests(rows)
     out = Path(a.out) if a.out else ROOT / "results/soils/shear"
-    name = f"{rows[0]['bed']}-{'_'.join(f'{s:g}' for s in stresses)}"
+    name = f"{rows[0]['bed']}-{'_'.join(f'{s:g}' for s in stresses)}{'-remoulded' if a.remoulded else ''}"
     summary = {"bed": rows[0]["bed"], "soil": rows[0]["soil"], "radius_mm": 1000 * rows[0]["radius_m"],
+               **({"remoulded": True} if a.remoulded else {}),
                "overrides": test, **fit, "tests": rows}
     atomic_write(out / f"{name}.json", json.dumps(summary, indent=1))
     print(json.dumps({k: v for k, v in summary.items() if k != "tests"}))

@@ -35,6 +35,14 @@ def soil_material(soil, density: float, young: float | None = None, cohesive: bo
                        label="soil")
 
 
+def disturbed(soil):
+    """The soil as its disturbed grains have it: every bond new_contact_cohesion of the intact one (a column let
+    collapse, a remoulded sample), the intact bond still the cap of its pressed re-adhesion."""
+    from analysis.core.soil_config import soil_with
+    return soil_with(soil, {"normal_cohesion": soil.new_contact_cohesion * soil.normal_cohesion,
+                            "shear_cohesion": soil.new_contact_cohesion * soil.shear_cohesion})
+
+
 def steel_material(soil, friction_deg: float = STEEL_SOIL_FRICTION_DEG):
     """Tools and container walls: frictional (`friction_deg`; 0 for a bench test's smooth frame), never bonded,
     no rolling moment."""

@@ -298,6 +298,22 @@ def test_a_cohesionless_shear_box_gives_a_friction_angle_that_grows_with_the_gra
 
 
 @pytest.mark.scene
+def test_a_remoulded_sample_holds_only_the_bonds_its_load_pressed_into_it(tmp_path):
+    """`--remoulded`: every contact of the sample a new one (no share of the intact bond here), so at the low stress
+    it shears weaker than the intact sample of the same bed and bonds; with pressed re-adhesion (α 0.5) it gains the
+    strength its load pressed into its contacts (small box: peaks 36.9 intact, 32.6 remoulded, 39.5 and 103.5
+    against 99.1 kPa at 25 and 75 kPa with α)."""
+    bonds = ["--stress", "25,75", "--speed", "0.1", "--test-set", "normal_cohesion=100000", "--test-set",
+             "shear_cohesion=100000", "--test-set", "new_contact_cohesion=0", "--test-set", "bond_fragile=0"]
+    fits = bench_scenes(tmp_path, "shear", {"intact": bonds, "remoulded": [*bonds, "--remoulded"],
+                                            "pressed": [*bonds, "--remoulded", "--test-set", "pressed_adhesion=0.5"]})
+    peaks = {k: [t["tau_peak_kpa"] for t in fit["tests"]] for k, fit in fits.items()}
+    assert peaks["remoulded"][0] < peaks["intact"][0] - 2, peaks
+    assert np.mean(peaks["pressed"]) > np.mean(peaks["remoulded"]) + 2, peaks
+    assert fits["remoulded"]["remoulded"] and "remoulded" not in fits["intact"]
+
+
+@pytest.mark.scene
 def test_disturbed_soil_with_its_bonds_back_stands_steeper_than_without(tmp_path):
     runs = bench_scenes(tmp_path, "collapse", {f"f{frac:g}": ["--test-set", f"new_contact_cohesion={frac}"]
                                                 for frac in (0.0, 1.0)})
