@@ -12,7 +12,9 @@ beyond it as far as the upper half travels, so the soil the upper half carries p
 as it does on a real box's rim (a grain that leaves all the same is
 taken away and counted; more than MAX_ESCAPED of them stop the test); frames and lid smooth, so no wall
 friction wedges the sample),
-lid (a plate resting on the sample under a dead load σn·A, free to rise and sink, moving with the upper half),
+lid (a plate resting on the sample under a dead load σn·A, free to rise and sink, moving with the upper half;
+`--preload`: first under a higher load, then eased to σn before shearing, so the sample keeps the bonds the preload
+pressed into it, as an overconsolidated sample does),
 recorder (the shear force the upper half takes, and the shear and normal forces the grains pass across the shear
 plane through their contacts, against the shift, each over the sheared area). One fresh sample per normal stress,
 as a shear box test is run; the peak shear stress over a shift of SHEAR_STRAIN × the box's length is τ at that σn.
@@ -45,9 +47,10 @@ CHUNK = 50                     # steps between two records of the curve (0.09 mm
 
 
 def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, threads: int = 1,
-        overrides: dict | None = None, quiet: bool = False, remoulded: bool = False) -> dict:
-    """Consolidate the bed's sample (remoulded: every contact a new one) under σn = stress_kpa, shear it, return its
-    curve's summary."""
+        overrides: dict | None = None, quiet: bool = False, remoulded: bool = False,
+        preload_kpa: float | None = None) -> dict:
+    """Consolidate the bed's sample (remoulded: every contact a new one) under σn = stress_kpa (first under
+    preload_kpa, then eased to σn), shear it, return its curve's summary."""
     from scripts.beds import bench_start
     soil, meta, data, log = bench_start(bed_path, soil_name, overrides, threads, quiet)
     import numpy as np
@@ -80,7 +83,7 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     lid_id = O.bodies.append(lid)
     area = L * W
     load = stress_kpa * 1e3 * area
-    O.forces.setPermF(lid_id, (0, 0, -load))
+    O.forces.setPermF(lid_id, (0, 0, -(preload_kpa * 1e3 * area if preload_kpa else load)))
     rows = []
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True,
                              extra=part.pressed_adhesion(O, soil))
@@ -91,6 +94,10 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     O.run(1, True)                                      # the intact bonds
     part.bond_new_contacts(O, soil)
     O.run(n_consolidate - 1, True)
+    if preload_kpa:                                     # eased to σn, at rest again before shearing
+        O.forces.setPermF(lid_id, (0, 0, -load))
+        O.run(n_consolidate, True)
+    n_sheared_from = O.iter
     z_lid0 = O.bodies[lid_id].state.pos[2]
     travel = SHEAR_STRAIN * L
     n_shear = int(travel / speed / O.dt) + 1
@@ -101,7 +108,7 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     report = max(1, n_shear // 10)
     chunk = CHUNK
     escaped = 0
-    while O.iter < n_consolidate + n_shear:
+    while O.iter < n_sheared_from + n_shear:
         O.run(chunk, True)
         fx = -sum(O.forces.f(i)[0] for i in upper_ids) - O.forces.f(lid_id)[0]    # the push the soil resists
         f_plane, n_plane = across_plane(O, n_grains, plane)
@@ -110,7 +117,7 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
         shift = speed * (O.time - t_shear)
         area = (L - shift) * W
         rows.append((shift, fx / area, O.bodies[lid_id].state.pos[2] - z_lid0, f_plane / area, n_plane / area))
-        if (O.iter - n_consolidate) % report < chunk:
+        if (O.iter - n_sheared_from) % report < chunk:
             log(f"shear σn {stress_kpa:g} kPa: {100 * shift / travel:3.0f} %  τ {rows[-1][1] / 1e3:6.1f} kPa  "
                 f"at the plane {abs(rows[-1][3]) / 1e3:6.1f} kPa under σ {abs(rows[-1][4]) / 1e3:6.1f} kPa  "
                 f"lid {1000 * rows[-1][2]:+.1f} mm  wall {time.time() - wall0:.0f} s")
@@ -124,7 +131,7 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     d[:, 3:5] = np.abs(d[:, 3:5])          # the contacts' sums, whichever body YADE books them on
     tail = d[int(0.8 * len(d)):]
     return {"bed": meta["key"], "soil": soil.name, "radius_m": r, "size_m": [L, W, D], "stress_kpa": stress_kpa,
-            "remoulded": remoulded,
+            "remoulded": remoulded, "preload_kpa": preload_kpa,
             "tau_peak_kpa": float(d[:, 1].max() / 1e3), "tau_residual_kpa": float(tail[:, 1].mean() / 1e3),
             "tau_plane_peak_kpa": float(d[:, 3].max() / 1e3), "tau_plane_residual_kpa": float(tail[:, 3].mean() / 1e3),
             "sigma_plane_mean_kpa": float(d[:, 4].mean() / 1e3),
@@ -184,6 +191,9 @@ def arguments():
     p.add_argument("--speed", type=option("--speed", SPEED), default=0.05, help="shearing speed, m/s (default 0.05)")
     p.add_argument("--remoulded", action="store_true",
                    help="every contact of the sample a new one, bonded only as the load presses it (a remoulded sample)")
+    p.add_argument("--preload", type=option("--preload", STRESS),
+                   help="kPa: each sample first consolidated under this load, then eased to its normal stress before "
+                        "shearing (above every --stress)")
     bed.add_test_set(p)
     p.add_argument("--out", type=folder("--out"), help="where the result goes (default results/soils/shear)")
     return p
@@ -196,8 +206,12 @@ def main(argv=None) -> int:
     try:
         test = {**parse_overrides(a.set), **parse_overrides(a.test_set)}
         soil_with(load_soil(a.soil), test)              # every override checked before a bed settles
+        if a.preload is not None and a.preload <= max(stresses):
+            raise ConfigError(f"--preload = {a.preload:g} kPa: allowed above the highest --stress ({max(stresses):g} "
+                              "kPa), the load the sample is eased to")
         bed_path = bed.bed_from_args(a)
-        rows = [run(bed_path, a.soil, s, a.speed, a.threads, test, remoulded=a.remoulded) for s in stresses]
+        rows = [run(bed_path, a.soil, s, a.speed, a.threads, test, remoulded=a.remoulded, preload_kpa=a.preload)
+                for s in stresses]
     except (ConfigError, ValueError) as e:
         print(f"shear: {e}", file=sys.stderr)
         return 2
@@ -207,9 +221,10 @@ def main(argv=None) -> int:
     from analysis.soil.shear import fit_tests
     fit = fit_tests(rows)
     out = Path(a.out) if a.out else ROOT / "results/soils/shear"
-    name = f"{rows[0]['bed']}-{'_'.join(f'{s:g}' for s in stresses)}{'-remoulded' if a.remoulded else ''}"
+    name = (f"{rows[0]['bed']}-{'_'.join(f'{s:g}' for s in stresses)}{'-remoulded' if a.remoulded else ''}"
+            f"{f'-pre{a.preload:g}' if a.preload else ''}")
     summary = {"bed": rows[0]["bed"], "soil": rows[0]["soil"], "radius_mm": 1000 * rows[0]["radius_m"],
-               **({"remoulded": True} if a.remoulded else {}),
+               **({"remoulded": True} if a.remoulded else {}), **({"preload_kpa": a.preload} if a.preload else {}),
                "overrides": test, **fit, "tests": rows}
     atomic_write(out / f"{name}.json", json.dumps(summary, indent=1))
     print(json.dumps({k: v for k, v in summary.items() if k != "tests"}))

@@ -100,3 +100,11 @@ def test_invalid_values_leave_a_valid_value_alone():
         with pytest.raises(ConfigError):
             f.check("x", bad)
     assert f.check("x", 0.5) == 0.5
+
+
+def test_a_preload_not_above_every_normal_stress_is_refused_before_any_bed_settles(capsys, monkeypatch):
+    from scripts import beds, shear
+    monkeypatch.setattr(beds, "bed_from_args", lambda a: pytest.fail("a bed settled"))
+    assert shear.main(["--soil", "clay", "--stress", "10,20", "--preload", "20"]) == 2
+    err = capsys.readouterr().err
+    assert "--preload" in err and "allowed above the highest --stress" in err
