@@ -224,7 +224,7 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
     assert len(cones) == 1 and "--test-set" in cones[0] and "bond_fragile=0.0" in cones[0]
     assert bench.check("clay", post, cfg, tmp_path)["cone_kpa"]["mean"] == cone["mean"] and len(cones) == 1
     assert [p.name for p in bench.report(tmp_path)] == ["posterior.png", "responses.png", "surfaces.csv", "feasible.csv",
-                                                        "deepest.csv"]
+                                                        "deepest.csv", "profiles.csv", "profiles.png"]
     config = tmp_path / "clay.toml"
     config.write_text((bench.ROOT / "configs/soils/clay.toml").read_text())
     for _ in range(2):                                       # written again, it replaces its own table

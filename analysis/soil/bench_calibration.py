@@ -856,7 +856,8 @@ def margin_profile(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, 
     """How far the bench tests pin each calibrated parameter: the planes' deepest margin (`deepest_point`, in
     residual SDs) with the parameter held at each of `points` values across its prior and the others free. A
     profile that stays near its top across the prior is a parameter the others make up for, one the bench does not
-    identify; one that falls below 0 on both sides of a narrow window is pinned.
+    identify; one that falls below 0 on both sides of a narrow window is pinned. NaN where no margin can be
+    counted (a plane without scatter that the held value leaves outside its range).
 
     >>> s = pd.DataFrame([{"response": "c_kpa", "intercept": 0.0, "bond_kpa": 0.1, "friction_deg": 0.0,
     ...                    "disturbed_bond_kpa": 0.0, "rolling_friction": 0.0, "resid_sd": 1.0}])
@@ -871,8 +872,11 @@ def margin_profile(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, 
     rows = []
     for name, (lo, hi) in bounds.items():
         for value in np.linspace(lo, hi, points):
-            d = deepest_point(surfaces, targets, {**bounds, name: (float(value), float(value))}, fixed)
-            rows.append({"parameter": name, "value": float(value), "margin_sd": d["margin_sd"]})
+            try:
+                margin = deepest_point(surfaces, targets, {**bounds, name: (float(value), float(value))}, fixed)["margin_sd"]
+            except RuntimeError:
+                margin = math.nan
+            rows.append({"parameter": name, "value": float(value), "margin_sd": margin})
     return pd.DataFrame(rows)
 
 
