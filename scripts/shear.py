@@ -91,7 +91,7 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
         O.bodies[i].dynamic = False
     O.dt = 0.5 * utils.PWaveTimeStep()
     n_consolidate = int(CONSOLIDATE_S / O.dt)
-    O.run(1, True)                                      # the intact bonds
+    O.run(1, True)                                      # the intact bonds (remoulded: the disturbed soil's)
     part.bond_new_contacts(O, soil)
     O.run(n_consolidate - 1, True)
     if preload_kpa:                                     # eased to σn, at rest again before shearing
