@@ -116,10 +116,10 @@ def bond_new_contacts(O, soil):
     strength (YADE's Ip2 reads the material's cohesion when a contact forms; bonds made earlier keep theirs)."""
     if soil.new_contact_cohesion == 1.0:
         return
+    new = disturbed(soil)
     for m in O.materials:
         if m.label == "soil":
-            m.normalCohesion = soil.new_contact_cohesion * soil.normal_cohesion
-            m.shearCohesion = soil.new_contact_cohesion * soil.shear_cohesion
+            m.normalCohesion, m.shearCohesion = new.normal_cohesion, new.shear_cohesion
 
 
 def press_bonds(O, alpha: float, normal: float, shear: float, grain) -> int:
