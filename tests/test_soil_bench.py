@@ -757,3 +757,31 @@ def test_while_a_filter_runs_the_report_draws_its_planes_and_profiles_over_the_f
         (tmp_path / "profiles.csv").read_text().splitlines()[0]
     spread = profile.groupby("parameter")["margin_sd"].agg(lambda m: m.max() - m.min())
     assert spread["damping"] < 0.2 * spread["normal_cohesion"]     # made_up_bench has no damping term
+
+
+def test_soils_apart_reads_a_response_as_telling_two_soils_apart_only_when_its_interval_leaves_zero_out(tmp_path):
+    """Made-up checks: c differs by 12 kPa over a 1 kPa scatter (apart), φ by 0.3° over 1° (not); the parameter
+    intervals are disjoint for the bond only; the soils' own targets decide `targets_apart`."""
+    from analysis.soil import soils_apart
+    rng = np.random.default_rng(5)
+    means = {"clay": {"c_kpa": 25, "phi_deg": 28, "collapse_deg": 34}, "loam": {"c_kpa": 13, "phi_deg": 28.3,
+                                                                                 "collapse_deg": 34}}
+    for soil, m in means.items():
+        pd.DataFrame([{r: v + rng.normal(0, 1) for r, v in m.items()} for _ in range(3)]) \
+            .to_csv(tmp_path / f"{soil}-check.csv", index=False)
+        bond = 90e3 if soil == "clay" else 150e3
+        (tmp_path / f"{soil}-posterior.json").write_text(json.dumps({
+            "mean": {"normal_cohesion": bond, "friction_deg": 12.0},
+            "interval": {"normal_cohesion": [bond - 10e3, bond + 10e3], "friction_deg": [10.0, 14.0]}, "targets": {}}))
+    paths = soils_apart.run(tmp_path)
+    responses = pd.read_csv(paths[0], comment="#").set_index("response")
+    assert responses.loc["c_kpa", "apart"] and not responses.loc["phi_deg", "apart"]
+    assert responses.loc["c_kpa", "soils"] == "loam - clay" and responses.loc["c_kpa", "difference"] < -9
+    targets = {s: bench.load_targets(s) for s in means}
+    c_disjoint = targets["clay"].loc["c_kpa", "lo"] > targets["loam"].loc["c_kpa", "hi"]
+    assert responses.loc["c_kpa", "targets_apart"] == c_disjoint
+    assert "cone_kpa" not in responses.index                   # neither posterior has a cone target
+    params = pd.read_csv(paths[1], comment="#").set_index("parameter")
+    assert params.loc["normal_cohesion", "apart"] and not params.loc["friction_deg", "apart"]
+    (tmp_path / "loam-check.csv").unlink()
+    assert soils_apart.run(tmp_path) == []                     # one soil checked: nothing to set apart
