@@ -122,7 +122,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=option("--seeds", SEED, many=True), default=[1],
                    help="packing seeds; the cone index is their mean, e.g. 1,2,3")
     p.add_argument("--lateral", default="periodic", help="the beds' sides: periodic (no side walls) | walls")
-    p.add_argument("--workers", type=option("--workers", WORKERS), default=2, help="cone scenes at a time")
+    p.add_argument("--workers", type=option("--workers", WORKERS), default=None,
+                   help="scenes at a time: cones (default 2), or with --bench its evaluations and cones (default "
+                        "configs/bench_calibration.toml [bench] workers)")
     p.add_argument("--threads", type=option("--threads", THREADS), default=1, help="threads per scene")
     p.add_argument("--cohesion-range", type=cohesion_range, default=(0.0, 200000.0),
                    help="lo,hi in Pa (default 0,200000)")
@@ -148,7 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--probe", type=parameter_set, action="append", default=None, metavar="NAME=VALUE,...",
                    help="with --bench: no calibration; this parameter set's bench responses and cone index on the "
                         "calibration packing (every calibrated parameter named; repeat for more sets, run --workers "
-                        "at a time by the config): results/calibration/bench/<soil>-probes.csv")
+                        "at a time): results/calibration/bench/<soil>-probes.csv")
     p.set_defaults(func=cmd_calibrate)
     p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "
                        "cone-to-particle ratio, core density (results/calibration/cone_checks.csv, .png)")

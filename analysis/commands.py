@@ -77,7 +77,7 @@ def cmd_calibrate(args) -> int:
         return 2
     try:
         calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, args.seeds, args.cone_speed,
-                      args.threads, args.lateral, args.workers)
+                      args.threads, args.lateral, args.workers or 2)
     except (ValueError, RuntimeError) as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1
@@ -171,6 +171,7 @@ def cmd_calibrate_bench(args) -> int:
     try:
         cfg = bench.load_config(soil=args.soil)
         load_soil(args.soil), bench.load_targets(args.soil), load_resolution(cfg["resolution"])
+        cfg["workers"] = args.workers or cfg["workers"]
     except ConfigError as e:
         print(f"calibrate: {e}", file=sys.stderr)
         return 2
@@ -181,9 +182,9 @@ def cmd_calibrate_bench(args) -> int:
     if asked:
         import pandas as pd
         checks = {"--size-check": lambda: bench.size_check(args.soil, cfg).round(2),
-                  "--cones": lambda: bench.cones(args.soil, args.cones, cfg, workers=args.workers),
+                  "--cones": lambda: bench.cones(args.soil, args.cones, cfg, workers=cfg["workers"]),
                   "--probe": lambda: bench.probes(args.soil, args.probe, cfg),
-                  "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds, cfg, workers=args.workers).round(2),
+                  "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds, cfg, workers=cfg["workers"]).round(2),
                   "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg)).T}
         try:
             table = checks[asked[0]]()

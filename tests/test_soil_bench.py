@@ -404,6 +404,17 @@ def test_the_size_check_and_the_cones_are_one_at_a_time(capsys):
     assert "allowed one of them" in capsys.readouterr().err
 
 
+def test_workers_sets_how_many_bench_scenes_run_at_a_time_else_the_config_does(monkeypatch):
+    """`calibrate --bench --workers N` runs N evaluations at a time (the size check's here); without it, [bench]
+    workers."""
+    from analysis.cli import main
+    seen = []
+    monkeypatch.setattr(bench, "size_check", lambda soil, cfg: seen.append(cfg["workers"]) or pd.DataFrame())
+    assert main(["calibrate", "--soil", "clay", "--bench", "--size-check", "--workers", "1"]) == 0
+    assert main(["calibrate", "--soil", "clay", "--bench", "--size-check"]) == 0
+    assert seen == [1, bench.load_config(soil="clay")["workers"]]
+
+
 def test_the_cone_transfer_reads_the_posterior_cone_at_both_grain_sizes_on_each_packing(tmp_path, monkeypatch, capsys):
     """`calibrate --bench --cone-transfer`: the posterior mean's cone on each packing at the filter's grains and at
     the bench's, their ratio per packing in <soil>-cone-transfer.csv; cones already run are reused; without a
