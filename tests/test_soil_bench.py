@@ -783,7 +783,7 @@ def test_soils_apart_reads_a_response_as_telling_two_soils_apart_only_when_its_i
         bond = 90e3 if soil == "clay" else 150e3
         (tmp_path / f"{soil}-posterior.json").write_text(json.dumps({
             "mean": {"normal_cohesion": bond, "friction_deg": 12.0},
-            "interval": {"normal_cohesion": [bond - 10e3, bond + 10e3], "friction_deg": [10.0, 14.0]}, "targets": {}}))
+            "interval": {"normal_cohesion": [bond - 10e3, bond + 10e3], "friction_deg": [10.0, 14.0]}}))
     paths = soils_apart.run(tmp_path)
     responses = pd.read_csv(paths[0], comment="#").set_index("response")
     assert responses.loc["c_kpa", "apart"] and not responses.loc["phi_deg", "apart"]
@@ -791,7 +791,7 @@ def test_soils_apart_reads_a_response_as_telling_two_soils_apart_only_when_its_i
     targets = {s: bench.load_targets(s) for s in means}
     c_disjoint = targets["clay"].loc["c_kpa", "lo"] > targets["loam"].loc["c_kpa", "hi"]
     assert responses.loc["c_kpa", "targets_apart"] == c_disjoint
-    assert "cone_kpa" not in responses.index                   # neither posterior has a cone target
+    assert "cone_kpa" not in responses.index                   # neither check has a cone
     params = pd.read_csv(paths[1], comment="#").set_index("parameter")
     assert params.loc["normal_cohesion", "apart"] and not params.loc["friction_deg", "apart"]
     (tmp_path / "loam-check.csv").unlink()

@@ -12,7 +12,7 @@ import pandas as pd
 from scipy import stats
 
 from analysis.core.io import atomic_csv
-from analysis.soil.bench_calibration import BENCH_DIR, RESPONSES, load_targets
+from analysis.soil.bench_calibration import BENCH_DIR, RESPONSES, load_config, target_ranges
 
 SOILS = ("clay", "loam", "sand")
 
@@ -36,11 +36,12 @@ def difference_interval(a, b, level: float = 0.95) -> tuple[float, float, float]
 def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict]) -> pd.DataFrame:
     """Per response and pair of soils (in `checks`' order): both packings' means, the difference with its 95 %
     interval, whether it leaves zero out (`apart`) and whether the two target ranges are disjoint (`targets_apart`).
-    `targets[soil][response]` is the (lo, hi) range; a response a soil's check lacks is left out of its pairs."""
+    `targets[soil][response]` is the (lo, hi) range; a response one of the two soils' checks or targets lacks is left
+    out of their pair."""
     rows = []
     for r in [*RESPONSES, "cone_kpa"]:
         for s1, s2 in itertools.combinations(checks, 2):
-            if r not in checks[s1] or r not in checks[s2]:
+            if any(r not in checks[s] or r not in targets[s] for s in (s1, s2)):
                 continue
             d, lo, hi = difference_interval(checks[s1][r], checks[s2][r])
             (a_lo, a_hi), (b_lo, b_hi) = targets[s1][r], targets[s2][r]
@@ -73,11 +74,7 @@ def run(out_dir: Path = BENCH_DIR) -> list[Path]:
         return []
     checks = {s: pd.read_csv(out_dir / f"{s}-check.csv", comment="#") for s in soils}
     posteriors = {s: json.loads((out_dir / f"{s}-posterior.json").read_text()) for s in soils}
-    targets = {s: {**{r: tuple(load_targets(s).loc[r, ["lo", "hi"]]) for r in RESPONSES},
-                   **({"cone_kpa": tuple(posteriors[s]["targets"]["cone_kpa"][:2])}
-                      if "cone_kpa" in posteriors[s].get("targets", {}) else {})} for s in soils}
-    checks = {s: c.drop(columns=[r for r in ["cone_kpa"] if r not in targets[s]], errors="ignore")
-              for s, c in checks.items()}
+    targets = {s: target_ranges(s, load_config(soil=s)) for s in soils}
     paths = [out_dir / "soils-apart.csv", out_dir / "soils-apart-parameters.csv"]
     atomic_csv(responses_apart(checks, targets).round(3), paths[0],
                "./holes calibration-report; per bench response and pair of soils, the difference of the posterior "
