@@ -180,6 +180,9 @@ def test_a_bench_soils_preset_runs_each_soil_as_its_bench_calibration_left_it(tm
         # the bed settles as the bench tests' beds did (as [soil] says): the same bed as the table soil's runs
         assert bench["bed_settled_as"] == {k: table["soil"][k] for k in bench["bed_settled_as"]}
         assert "bed_settled_as" not in table
+        # a study's contact-law overrides change the contact law, not the bed: it still settles as the bench's did
+        varied = plan(soil, "bench_soils_medium", overrides={"friction_deg": 7.5, "rolling_friction": 0.2})
+        assert varied["bed_settled_as"] == bench["bed_settled_as"] and varied["soil"]["friction_deg"] == 7.5
         assert {k: v for k, v in bench["preset"].items() if k not in ("name", "soils")} == \
             {k: v for k, v in table["preset"].items() if k != "name"}
     bare = tmp_path / "clay.toml"

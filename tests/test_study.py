@@ -351,3 +351,60 @@ def test_a_sensitivity_sets_a_case_beside_its_own_packings_holes_where_the_compa
     assert effect.loc["p1", "packings"] == "1" and effect.loc["p1", "validation_holes"] == 4
     assert effect.loc["p1", "shift"] == pytest.approx(-4.0) and effect.loc["p1", "resolved"]
     assert effect.loc["p3", "packings"] == "all" and effect.loc["p3", "shift"] == pytest.approx(-7.0)
+
+
+POSTERIOR = """[study]
+name = "post"
+[base]
+preset = "bench_soils_medium"
+seed = 1
+[posterior]
+soils = ["clay"]
+share = 0.85
+samples = 4
+"""
+
+
+def made_up_posterior(bench):
+    """A finished clay filter in `bench`: two iterations, the last one's weights 0.6, 0.3, 0.08, 0.02."""
+    import pandas as pd
+    bench.mkdir()
+    rows = [{"iteration": it, "normal_cohesion": 8e4 + 1e4 * i, "friction_deg": 8.0 + i, "pressed_adhesion": 0.1,
+             "rolling_friction": 0.2, "damping": 0.1 + 0.01 * i, "weight_last": w}
+            for it, weights in ((1, [None] * 4), (2, [0.02, 0.6, 0.08, 0.3])) for i, w in enumerate(weights)]
+    pd.DataFrame(rows).to_csv(bench / "clay.csv", index=False)
+    (bench / "clay-posterior.json").write_text(json.dumps({
+        "names": ["normal_cohesion", "friction_deg", "pressed_adhesion", "rolling_friction", "damping"],
+        "fixed": {"new_contact_cohesion": 0.0, "bond_fragile": 0}}))
+
+
+def test_a_posterior_section_runs_the_heaviest_samples_with_their_weights(tmp_path, monkeypatch):
+    """[posterior]: the last iteration's samples by weight until they hold 85 % (0.6 + 0.3), each a case setting every
+    calibrated parameter, the shear bond equal to the normal one and the fixed values; the weights renormalised over
+    those taken; the budget's soil part is 1.96 × their holes' weighted SD. A soil without a finished filter, or a
+    share out of its range, is refused naming the key."""
+    import pandas as pd
+    from analysis.core import soil_config
+    from analysis.holes.budget_report import posterior_parts
+    made_up_posterior(tmp_path / "bench")
+    monkeypatch.setattr(soil_config, "BENCH_DIR", tmp_path / "bench")
+    path = tmp_path / "post.toml"
+    path.write_text(POSTERIOR)
+    head, cases = load_study(path)
+    assert [c.fields["soil.friction_deg"] for c in cases] == [9.0, 11.0]
+    weights = [head["posterior"][tuple(sorted(c.fields.items()))] for c in cases]
+    assert np.allclose(weights, [0.6 / 0.9, 0.3 / 0.9])
+    for c in cases:
+        s = c.params["soil"]
+        assert s["shear_cohesion"] == s["normal_cohesion"] == c.fields["soil.normal_cohesion"]
+        assert s["new_contact_cohesion"] == 0 and s["bond_fragile"] == 0 and s["damping"] == c.fields["soil.damping"]
+    table = pd.DataFrame({"soil": "clay", "posterior_weight": weights, "L2": [60.0, 57.0], "h1": [10.0, np.nan]})
+    part = posterior_parts(table, ["L2", "h1"])
+    assert list(part.metric) == ["L2"]                 # h1 has one strip measured: no spread
+    assert part.soil_part.iloc[0] == pytest.approx(1.96 * 3 * np.sqrt(2 / 9 / (1 - 5 / 9)))
+    path.write_text(POSTERIOR.replace("share = 0.85", "share = 1.5"))
+    with pytest.raises(ConfigError, match=r"posterior\.share = 1\.5: allowed"):
+        load_study(path)
+    path.write_text(POSTERIOR.replace('["clay"]', '["sand"]'))
+    with pytest.raises(ConfigError, match=r"sand: no finished bench calibration.*calibrate --soil sand --bench"):
+        load_study(path)

@@ -9,6 +9,10 @@ A study file:
     [[case]]  field = value ...: one case each                    } (grid cases, then the listed ones)
     [morris]  trajectories, levels, seed and [morris.bounds] field = [lo, hi]: SALib's Morris design over those
               fields, one case per design point (a screening: NAME-morris.csv ranks the fields by μ* per metric)
+    [posterior] soils, share, samples: each soil's bench posterior as its heaviest samples (the calibration's last
+              iteration, together `share` of its weight, at most `samples`), one case each with every calibrated
+              and fixed contact parameter set; the table's `posterior_weight` is the sample's weight renormalised
+              over those taken (the error budget's soil part: the weighted spread of their holes)
 Fields: soil, preset, seed, slip, speed_kmh, holes, lead_in, width, depth, mode, resolution, dt_safety, awake
 ([behind, ahead] mm), weight, depth_stop, disk_inertia, density_scale, tilled ([depth mm, density ratio]);
 disk.<field> and sleeve.<field> (configs/disk.toml) and soil.<field> (the soil's contact parameters).
@@ -55,9 +59,10 @@ STUDY_KEYS = {"name": "the stem of results/studies/NAME.csv and .png", "descript
 def load_study(path) -> tuple[dict, list[Case]]:
     """The study's header and its cases (each a dict of fields), every case checked before any runs."""
     data = read_toml(path)
-    unknown = sorted(set(data) - {"study", "base", "grid", "case", "morris"})
+    unknown = sorted(set(data) - {"study", "base", "grid", "case", "morris", "posterior"})
     if unknown:
-        raise ConfigError(f"{path}: unknown section(s) {', '.join(unknown)}; allowed study, base, grid, case, morris")
+        raise ConfigError(f"{path}: unknown section(s) {', '.join(unknown)}; allowed study, base, grid, case, morris, "
+                          "posterior")
     head = data.get("study", {})
     unknown = sorted(set(head) - set(STUDY_KEYS))
     if unknown:
@@ -85,8 +90,14 @@ def load_study(path) -> tuple[dict, list[Case]]:
             if key not in seen:                    # trajectories may share a point: it runs once
                 seen.add(key)
                 cases.append(point)
+    if "posterior" in data:
+        draws = posterior_cases(path, data["posterior"])
+        head = {**head, "posterior": {}}
+        for fields, weight in draws:
+            cases.append({**base, **fields})
+            head["posterior"][tuple(sorted(cases[-1].items()))] = weight
     if not cases:
-        raise ConfigError(f"{path}: no cases (give [grid] lists, [[case]] tables or a [morris] design)")
+        raise ConfigError(f"{path}: no cases (give [grid] lists, [[case]] tables, a [morris] design or a [posterior])")
     checked = []
     for i, c in enumerate(cases):
         try:
@@ -123,6 +134,33 @@ def morris_design(path, spec: dict) -> dict:
     problem, X = design({k: tuple(map(float, v)) for k, v in bounds.items()}, trajectories, levels,
                         int(spec.get("seed", 0)))
     return {"problem": problem, "design": X, "levels": levels}
+
+
+POSTERIOR_KEYS = {"soils": "the soils whose bench posteriors are drawn (clay, loam, sand)",
+                  "share": "the share of the last iteration's weight the samples taken hold, above 0 and at most 1",
+                  "samples": "the most samples taken per soil, at least 2"}
+
+
+def posterior_cases(path, spec: dict) -> list[tuple[dict, float]]:
+    """The [posterior] section checked, and its cases: (fields, weight) per soil's heaviest posterior sample
+    (analysis/core/soil_config.py `posterior_samples`), every contact parameter as a `soil.` field."""
+    from analysis.core.soil_config import SOILS, posterior_samples
+    unknown = sorted(set(spec) - set(POSTERIOR_KEYS))
+    if unknown:
+        raise ConfigError(f"{path}: [posterior] has unknown key(s) {', '.join(unknown)}: allowed {', '.join(POSTERIOR_KEYS)}")
+    soils, share, most = spec.get("soils", []), spec.get("share", 0.85), spec.get("samples", 4)
+    if not (isinstance(soils, list) and soils and all(s in SOILS for s in soils)):
+        raise ConfigError(f"{path}: posterior.soils = {soils!r}: allowed a non-empty list of {', '.join(SOILS)}")
+    if not (isinstance(share, (int, float)) and 0 < share <= 1):
+        raise ConfigError(f"{path}: posterior.share = {share!r}: allowed a number above 0 and at most 1")
+    if not (isinstance(most, int) and most >= 2):
+        raise ConfigError(f"{path}: posterior.samples = {most!r}: allowed a whole number of at least 2")
+    out = []
+    for soil in soils:
+        for s in posterior_samples(soil, float(share), most):
+            weight = s.pop("weight")
+            out.append(({"soil": soil, **{f"soil.{k}": v for k, v in s.items()}}, weight))
+    return out
 
 
 def screening(table: pd.DataFrame, design: dict, metrics=METRICS) -> pd.DataFrame:
@@ -206,6 +244,9 @@ def write_table(name: str, head: dict, cases: list[Case], rows: dict, runs_dir: 
     if not measured:
         return None
     table = pd.DataFrame(measured)
+    if head.get("posterior"):
+        weight = {c.id: head["posterior"].get(tuple(sorted(c.fields.items()))) for c in cases}
+        table["posterior_weight"] = table.run.map(weight)
     note = stamp(command)
     atomic_csv(table.round(4), out / f"{name}.csv", note)
     if head.get("morris"):

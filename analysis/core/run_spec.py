@@ -159,8 +159,8 @@ def plan(spec: RunSpec | str, preset: str | None = None, **changes) -> dict:
               "bed_size_mm": [10 * math.ceil(lay.length / 10), preset.width, preset.depth]}
     if weight is not None:                  # only then: the ids of runs without a weight stay as they were
         params["weight"] = weight
-    if preset.soils == "bench":             # likewise; the bed settles as the bench tests' beds did, as [soil] says
-        params["bed_settled_as"] = soil_with(table_soil, spec.overrides).settling_key()  # (the contact law then changes)
+    if preset.soils == "bench":             # likewise; the bed settles as the bench tests' beds did, as [soil] says,
+        params["bed_settled_as"] = table_soil.settling_key()   # whatever contact law the run's overrides then give it
     check_grains_fit(res, [x / 1000 for x in params["bed_size_mm"]])
     if res.graded:                          # likewise; measure.py reads the fine zone from here
         params["graded"] = {k: getattr(res, k) for k in ("radius", "spread", "coarse_radius", "fine_width",

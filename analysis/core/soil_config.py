@@ -127,6 +127,49 @@ def bench_soil(soil: Soil, path=None) -> Soil:
     return soil_with(soil, equal_bonds({**values, **post.get("fixed", {})}))
 
 
+BENCH_DIR = ROOT / "results/calibration/bench"    # the bench calibration's tables (`./holes calibrate --bench`)
+
+
+def heaviest(samples: list[dict], share: float, most: int) -> list[dict]:
+    """The samples by descending `weight` until together they hold `share` of the total, at most `most`; each with
+    its weight renormalised over those taken.
+
+    >>> [(s["a"], round(s["weight"], 3)) for s in heaviest([{"a": 1, "weight": 0.1}, {"a": 2, "weight": 0.6},
+    ...                                                      {"a": 3, "weight": 0.3}], share=0.85, most=4)]
+    [(2, 0.667), (3, 0.333)]
+    """
+    ranked = sorted((s for s in samples if s["weight"] > 0), key=lambda s: -s["weight"])
+    total, taken, held = sum(s["weight"] for s in ranked), [], 0.0
+    for s in ranked[:most]:
+        taken.append(s)
+        held += s["weight"]
+        if held >= share * total:
+            break
+    return [{**s, "weight": s["weight"] / held} for s in taken]
+
+
+def posterior_samples(soil: str, share: float, most: int, bench_dir=None) -> list[dict]:
+    """The soil's bench posterior as a few parameter sets: the filter's last iteration's samples
+    (<bench_dir>/<soil>.csv, `weight_last`) by `heaviest`, each the calibrated parameters (the shear bond equal to
+    the normal one, as the bench ran them), the values the calibration held fixed and its `weight`. A soil whose
+    filter has not finished is a ConfigError."""
+    import json
+
+    import pandas as pd
+    bench_dir = Path(bench_dir or BENCH_DIR)
+    table, post = bench_dir / f"{soil}.csv", bench_dir / f"{soil}-posterior.json"
+    if not (table.exists() and post.exists()):
+        raise ConfigError(f"{soil}: no finished bench calibration ({table.name}, {post.name} in {bench_dir}): "
+                          f"run ./holes calibrate --soil {soil} --bench first")
+    meta = json.loads(post.read_text())
+    t = pd.read_csv(table, comment="#")
+    last = t[t.iteration == t.iteration.max()]
+    rows = [{**{k: float(r[k]) for k in meta["names"]}, "weight": float(r["weight_last"])}
+            for r in last.to_dict("records") if pd.notna(r["weight_last"])]
+    return [{**equal_bonds({k: v for k, v in s.items() if k != "weight"}), **meta.get("fixed", {}),
+             "weight": s["weight"]} for s in heaviest(rows, share, most)]
+
+
 def equal_bonds(values: dict) -> dict:
     """Contact parameters with the shear bond set equal to the normal one, as the bench calibration varies them.
 

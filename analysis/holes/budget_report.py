@@ -8,10 +8,13 @@ its parts (analysis/holes/budget.py), each from the result that measures it:
   metric's slopes in P and k over the machine design's runs, in quadrature (linear propagation);
 - packing: the 95 % half-width of the mean over the preset's packings (Student's t over the runs' means), when it
   ran two or more;
-- soil: the cone-fitted bond's 95 % half-width (its cone calibration's replicate packings, budget.bond_interval)
-  times the metric's slope in the bond, from the strip with the bond stepped down (configs/studies/soil_bond.toml,
-  results/studies/soil_bond.csv) against the same packing's validation strip (results/validation/soil_bond.csv).
-  The soils' other contact parameters are fixed, not calibrated, so this part is the bond's share only.
+- soil: where the preset runs the cone-fitted soils, the bond's 95 % half-width (its cone calibration's replicate
+  packings, budget.bond_interval) times the metric's slope in the bond, from the strip with the bond stepped down
+  (configs/studies/soil_bond.toml, results/studies/soil_bond.csv) against the same packing's validation strip
+  (results/validation/soil_bond.csv): their other contact parameters are fixed, so this part is the bond's share
+  only. Where it runs the bench-calibrated soils (soils = "bench"), 1.96 × the weighted SD of the strips of each
+  soil's heaviest posterior samples (configs/studies/soil_posterior.toml, results/studies/soil_posterior.csv;
+  results/validation/soil_posterior.csv): every calibrated parameter at once, with its correlations.
 
 A part not measured stays empty and is named in the row; nothing is filled in.
 """
@@ -117,6 +120,32 @@ def soil_slopes(study: pd.DataFrame, holes: pd.DataFrame, bonds: pd.DataFrame, m
     return pd.DataFrame(rows)
 
 
+def posterior_parts(study: pd.DataFrame, metrics=METRICS) -> pd.DataFrame:
+    """Per soil and metric: the strips of the soil's posterior samples (a `[posterior]` study's table, its
+    `posterior_weight`), their weighted mean and SD (reliability weights, unbiased) and the soil part, 1.96 × that
+    SD. Each strip's own scatter (its holes, the packing's chaos) is in the spread too, so the part bounds the
+    soil parameters' share from above. A soil with fewer than two strips measured is left out.
+
+    >>> t = pd.DataFrame({"soil": ["clay"] * 3, "posterior_weight": [0.5, 0.25, 0.25], "L2": [60.0, 62.0, 58.0]})
+    >>> r = posterior_parts(t, ["L2"]).iloc[0]
+    >>> float(r["mean"]), round(float(r["sd"]), 3), round(float(r["soil_part"]), 3)   # 2/(1 - 0.375): Σw² = 0.375
+    (60.0, 1.789, 3.506)
+    """
+    rows = []
+    for soil, g in study.groupby("soil", sort=False):
+        for m in metrics:
+            ok = g[np.isfinite(g[m].to_numpy(float)) & (g.posterior_weight > 0)]
+            if len(ok) < 2:
+                continue
+            w = ok.posterior_weight.to_numpy(float) / ok.posterior_weight.sum()
+            x = ok[m].to_numpy(float)
+            mean = float(w @ x)
+            sd = math.sqrt(float(w @ (x - mean) ** 2) / (1 - float(w @ w)))
+            rows.append({"soil": soil, "metric": m, "samples": len(ok), "mean": mean, "sd": sd,
+                         "min": float(x.min()), "max": float(x.max()), "soil_part": 1.96 * sd})
+    return pd.DataFrame(rows)
+
+
 def table(comparison: pd.DataFrame, holes: pd.DataFrame, grain: pd.DataFrame, radius_mm: float,
           machine_rows: pd.DataFrame | None, machine_fit: pd.Series | None,
           soil_parts: pd.DataFrame | None = None) -> pd.DataFrame:
@@ -168,12 +197,20 @@ def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Pat
         if p.machine in fits.index:
             machine_fit = fits.loc[p.machine]
             machine_rows = read_table(Path(machine_dir) / "machine.csv")
-    study_path = ROOT / "results/studies/soil_bond.csv"
     soil_parts = None
-    if study_path.exists():
+    posterior_path = ROOT / "results/studies/soil_posterior.csv"
+    if p.soils == "bench":
+        if posterior_path.exists():
+            soil_parts = posterior_parts(read_table(posterior_path))
+            if len(soil_parts):
+                atomic_csv(soil_parts.round(4), Path(out) / "soil_posterior.csv",
+                           stamp(f"./holes budget --preset {preset}") + "; per soil, the strips of its heaviest bench "
+                           "posterior samples (results/studies/soil_posterior.csv): weighted mean and SD, soil_part = "
+                           "1.96 SD; mm")
+    elif (ROOT / "results/studies/soil_bond.csv").exists():
         bonds = soil_bonds()
-        soil_parts = soil_slopes(read_table(study_path), holes, bonds)
-    if soil_parts is not None and len(soil_parts):
+        soil_parts = soil_slopes(read_table(ROOT / "results/studies/soil_bond.csv"), holes, bonds)
+    if p.soils != "bench" and soil_parts is not None and len(soil_parts):
         bond_cols = ["soil", "centre", "lo", "hi", "slope", "cone_mean", "cone_sd", "replicates", "seeds",
                      "target_kpa"]        # the adopted bond and its half-width are soil_slopes' bond_kpa and bond_half_width_kpa
         atomic_csv(soil_parts.merge(bonds[bond_cols].rename(columns={"slope": "cone_slope_kpa_per_kpa"}), on="soil")

@@ -27,10 +27,10 @@ import pandas as pd
 from analysis.core.io import atomic_csv, atomic_write, say
 from analysis.core.runner import run_process
 from analysis.core.schema import ROOT, ConfigError
+from analysis.core.soil_config import BENCH_DIR
 
 CONFIG = ROOT / "configs/bench_calibration.toml"
 TARGETS = ROOT / "configs/field/soil_targets.csv"
-BENCH_DIR = ROOT / "results/calibration/bench"
 RESPONSES = ("c_kpa", "phi_deg", "collapse_deg")
 UNTESTABLE = 3         # a bench scene's exit code when it stopped the test itself (scripts/shear.py, scripts/collapse.py)
 SCENES_VERSION = 3     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
