@@ -141,6 +141,28 @@ def test_a_finished_evaluation_is_read_back_never_run_again(tmp_path, monkeypatc
     assert bench.evaluation_id("clay", 3, params, cfg) != folder.name
 
 
+def test_an_evaluation_stopped_between_its_tests_reruns_only_the_one_it_lacks(tmp_path, monkeypatch):
+    """The shear box finished (its result file written) and the collapse test did not: the evaluation reads the box
+    back and runs the collapse test alone; its responses are the box's file's."""
+    cfg = bench.load_config()
+    params = {"normal_cohesion": 9e4, "friction_deg": 9.0, "pressed_adhesion": 0.1, "rolling_friction": 0.3}
+    folder = tmp_path / "clay" / bench.evaluation_id("clay", 1, params, cfg)
+    folder.mkdir(parents=True)
+    (folder / "box.json").write_text(json.dumps({"c_kpa": 22.5, "phi_deg": 28.1, "tests": [{"tau_peak_kpa": 60.0}]}))
+    ran = []
+
+    def fake(cmd, sink):
+        ran.append(Path(cmd[1]).stem)
+        heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
+        (folder / "column.json").write_text(json.dumps({"profile_mm": heap, "runout_mm": 90.0}))
+        return 0, json.dumps({"runout_mm": 90.0})
+    monkeypatch.setattr(bench, "run_process", fake)
+    row = bench.evaluate("clay", 1, params, cfg, tmp_path)
+    assert ran == ["collapse"] and row["resumed"] == "shear"
+    assert (row["c_kpa"], row["phi_deg"], row["tau_peak_kpa"]) == (22.5, 28.1, [60.0])
+    assert row["collapse_deg"] == pytest.approx(45.0, abs=1.0)
+
+
 def test_a_test_the_scene_stopped_is_kept_as_failed_and_weighs_nothing(tmp_path, monkeypatch):
     """A leaking box (exit 3) is an evaluation without responses: kept, never run again, and its sample's miss is
     so large that the filter gives it no weight; a crash of another kind still stops the calibration."""

@@ -165,7 +165,9 @@ def overrides(params: dict, fixed: dict | None = None) -> list[str]:
 
 def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
     """Run (or reuse) the shear box and the collapse test of one parameter set on one packing; returns the
-    responses with the parameters. A failed scene raises RuntimeError with its log's tail."""
+    responses with the parameters. An evaluation stopped between its tests reruns only the test it lacks
+    (`finished_scene`; `resumed` names the one read back, and `wall_s` is this run's time). A failed scene raises
+    RuntimeError with its log's tail."""
     folder = Path(out_dir) / soil / evaluation_id(soil, seed, params, cfg)
     done = folder / "responses.json"
     if done.exists():
@@ -177,10 +179,14 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
     for item in overrides(params, cfg.get("fixed")):
         common += ["--test-set", item]
     wall0 = time.time()
-    results = {}
+    results, resumed = {}, []
     shear = ["--size", ",".join(map(str, cfg["size_mm"])), "--stress", ",".join(map(str, cfg["stresses_kpa"])),
              "--speed", str(cfg["speed_m_s"])]
     for scene, extra in (("shear", shear), ("collapse", ["--size", ",".join(map(str, collapse_size(cfg)))])):
+        results[scene] = finished_scene(folder, scene)
+        if results[scene] is not None:       # a stopped evaluation resumes after its last finished test
+            resumed.append(scene)
+            continue
         with open(folder / f"{scene}.log", "w") as log:
             code, out = run_process([sys.executable, str(ROOT / f"scripts/{scene}.py"), *common, *extra],
                                     lambda line: log.write(line))
@@ -197,8 +203,25 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
     row = {"id": folder.name, "soil": soil, "seed": seed, **params, "c_kpa": results["shear"]["c_kpa"],
            "phi_deg": results["shear"]["phi_deg"], "collapse_runout_mm": results["collapse"]["runout_mm"],
            "tau_peak_kpa": _shear_peaks(folder), "wall_s": time.time() - wall0}
+    if resumed:
+        row["resumed"] = ", ".join(resumed)
     atomic_write(done, json.dumps(row, indent=1))
     return with_collapse_angle(row, folder)
+
+
+SCENE_DETAIL = {"shear": "tests", "collapse": "profile_mm"}   # what a scene's result file holds beyond its stdout
+
+
+def finished_scene(folder: Path, scene: str) -> dict | None:
+    """A bench scene's result in an evaluation's folder, as its last line of output gives it, if the scene finished
+    there (it writes its file atomically when it ends); None if not. The folder is named by every parameter and
+    setting (`evaluation_id`), so a file in it is this evaluation's."""
+    for path in sorted(folder.glob("*.json")):
+        if path.name != "responses.json":
+            data = json.loads(path.read_text())
+            if SCENE_DETAIL[scene] in data:
+                return {k: v for k, v in data.items() if k != SCENE_DETAIL[scene]}
+    return None
 
 
 def with_collapse_angle(row: dict, folder: Path) -> dict:
