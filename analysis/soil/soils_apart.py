@@ -34,7 +34,7 @@ def difference_interval(a, b, level: float = 0.95) -> tuple[float, float, float]
 
 
 def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict]) -> pd.DataFrame:
-    """Per response and pair of soils (in `checks`' order): both packings' means, the difference with its 95 %
+    """Per response and pair of soils (in `checks`' order): both packings' means, the difference (soil_2 − soil_1) with its 95 %
     interval, whether it leaves zero out (`apart`) and whether the two target ranges are disjoint (`targets_apart`).
     `targets[soil][response]` is the (lo, hi) range; a response one of the two soils' checks or targets lacks is left
     out of their pair."""
@@ -45,7 +45,7 @@ def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict]) -
                 continue
             d, lo, hi = difference_interval(checks[s1][r], checks[s2][r])
             (a_lo, a_hi), (b_lo, b_hi) = targets[s1][r], targets[s2][r]
-            rows.append({"response": r, "soils": f"{s2} - {s1}", "mean_1": checks[s1][r].mean(),
+            rows.append({"response": r, "soil_1": s1, "soil_2": s2, "mean_1": checks[s1][r].mean(),
                          "mean_2": checks[s2][r].mean(), "difference": d, "lo": lo, "hi": hi,
                          "packings": f"{len(checks[s1])}+{len(checks[s2])}", "apart": bool(lo > 0 or hi < 0),
                          "targets_apart": bool(a_hi < b_lo or b_hi < a_lo)})
@@ -60,7 +60,7 @@ def parameters_apart(posteriors: dict[str, dict]) -> pd.DataFrame:
         p1, p2 = posteriors[s1], posteriors[s2]
         for n in [n for n in p1["mean"] if n in p2["mean"]]:
             (lo1, hi1), (lo2, hi2) = p1["interval"][n], p2["interval"][n]
-            rows.append({"parameter": n, "soils": f"{s2} - {s1}", "mean_1": p1["mean"][n], "lo_1": lo1, "hi_1": hi1,
+            rows.append({"parameter": n, "soil_1": s1, "soil_2": s2, "mean_1": p1["mean"][n], "lo_1": lo1, "hi_1": hi1,
                          "mean_2": p2["mean"][n], "lo_2": lo2, "hi_2": hi2, "apart": bool(hi1 < lo2 or hi2 < lo1)})
     return pd.DataFrame(rows)
 
@@ -78,7 +78,7 @@ def run(out_dir: Path = BENCH_DIR) -> list[Path]:
     paths = [out_dir / "soils-apart.csv", out_dir / "soils-apart-parameters.csv"]
     atomic_csv(responses_apart(checks, targets).round(3), paths[0],
                "./holes calibration-report; per bench response and pair of soils, the difference of the posterior "
-               "means' check packings (Welch 95 % interval) and whether the targets' ranges are disjoint")
+               "means' check packings, soil_2 − soil_1 (Welch 95 % interval), and whether the targets' ranges are disjoint")
     atomic_csv(parameters_apart(posteriors).round(4), paths[1],
                "./holes calibration-report; per calibrated parameter and pair of soils, the posteriors' 95 % "
                "intervals and whether they are disjoint")
