@@ -399,6 +399,8 @@ def test_a_posterior_section_runs_the_heaviest_samples_with_their_weights(tmp_pa
         assert s["shear_cohesion"] == s["normal_cohesion"] == c.fields["soil.normal_cohesion"]
         assert s["new_contact_cohesion"] == 0 and s["bond_fragile"] == 0 and s["damping"] == c.fields["soil.damping"]
     table = pd.DataFrame({"soil": "clay", "posterior_weight": weights, "L2": [60.0, 57.0], "h1": [10.0, np.nan]})
+    from analysis.batch.study import plot_axes
+    assert plot_axes(table.assign(**{"soil.friction_deg": [9.0, 11.0]}))[0] == "soil.friction_deg"   # a weight is no field
     part = posterior_parts(table, ["L2", "h1"])
     assert list(part.metric) == ["L2"]                 # h1 has one strip measured: no spread
     assert part.soil_part.iloc[0] == pytest.approx(1.96 * 3 * np.sqrt(2 / 9 / (1 - 5 / 9)))

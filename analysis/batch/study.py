@@ -339,7 +339,8 @@ def plot_axes(table: pd.DataFrame) -> tuple[str, str | None, pd.DataFrame]:
     """
     cost = ("wall_s", "cpu_s", "particles", "steps", "threads")
     keys = [k for k in table.columns if k not in ("run", "holes", "found", "passed", *cost, "slip_out", "slip_holes",
-                                                  "pass_rate", "energy_residual_pct", "residual_flag", *METRICS)
+                                                  "pass_rate", "energy_residual_pct", "residual_flag", "posterior_weight",
+                                                  *METRICS)
             and not k.endswith("_sd") and not k.startswith("l_") and table[k].astype(str).nunique(dropna=False) > 1]
     if not keys or table[keys[0]].isna().any():
         return "run", None, table
