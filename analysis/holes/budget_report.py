@@ -197,27 +197,8 @@ def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Pat
         if p.machine in fits.index:
             machine_fit = fits.loc[p.machine]
             machine_rows = read_table(Path(machine_dir) / "machine.csv")
-    soil_parts = None
-    posterior_path = ROOT / "results/studies/soil_posterior.csv"
-    if p.soils == "bench":
-        if posterior_path.exists():
-            soil_parts = posterior_parts(read_table(posterior_path))
-            if len(soil_parts):
-                atomic_csv(soil_parts.round(4), Path(out) / "soil_posterior.csv",
-                           stamp(f"./holes budget --preset {preset}") + "; per soil, the strips of its heaviest bench "
-                           "posterior samples (results/studies/soil_posterior.csv): weighted mean and SD, soil_part = "
-                           "1.96 SD; mm")
-    elif (ROOT / "results/studies/soil_bond.csv").exists():
-        bonds = soil_bonds()
-        soil_parts = soil_slopes(read_table(ROOT / "results/studies/soil_bond.csv"), holes, bonds)
-    if p.soils != "bench" and soil_parts is not None and len(soil_parts):
-        bond_cols = ["soil", "centre", "lo", "hi", "slope", "cone_mean", "cone_sd", "replicates", "seeds",
-                     "target_kpa"]        # the adopted bond and its half-width are soil_slopes' bond_kpa and bond_half_width_kpa
-        atomic_csv(soil_parts.merge(bonds[bond_cols].rename(columns={"slope": "cone_slope_kpa_per_kpa"}), on="soil")
-                   .round(4), Path(out) / "soil_bond.csv",
-                   stamp(f"./holes budget --preset {preset}") + "; the cone-fitted bond's 95 % interval (kPa, from "
-                   "results/calibration/<soil>.csv and cone_checks.csv replicates) and each metric's slope in it "
-                   "(results/studies/soil_bond.csv against the same packing's validation strip); mm")
+    note = stamp(f"./holes budget --preset {preset}")
+    soil_parts = posterior_soil_parts(Path(out), note) if p.soils == "bench" else bond_soil_parts(holes, Path(out), note)
     t = table(comparison, holes, grain, radius_mm, machine_rows, machine_fit, soil_parts)
     t = t[["soil", "metric", "calibration_target", "field_mean", "sim_mean", "n_holes", "n_runs", "miss", "grain_size",
            "grain_size_lo", "grain_size_hi", "model", "measurement", "machine", "packing", "soil_parameters",
@@ -227,6 +208,36 @@ def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Pat
     atomic_csv(t.round(3), path, stamp(command) + f"; mm; the miss (sim − field) = grain_size + model; 95 % half-widths "
                f"measurement, machine ({p.machine} fit), packing, soil; r = {radius_mm:g} mm")
     return [path, picture(t, Path(out) / "error_budget.png", preset)]
+
+
+def posterior_soil_parts(out: Path, note: str, study: Path = ROOT / "results/studies/soil_posterior.csv"):
+    """The bench-calibrated soils' part (`posterior_parts` of the posterior study), also written to
+    <out>/soil_posterior.csv; None before the study has run."""
+    if not study.exists():
+        return None
+    parts = posterior_parts(read_table(study))
+    if len(parts):
+        atomic_csv(parts.round(4), out / "soil_posterior.csv", note + "; per soil, the strips of its heaviest bench "
+                   "posterior samples (results/studies/soil_posterior.csv): weighted mean and SD, soil_part = 1.96 SD; mm")
+    return parts
+
+
+def bond_soil_parts(holes: pd.DataFrame, out: Path, note: str, study: Path = ROOT / "results/studies/soil_bond.csv"):
+    """The cone-fitted soils' part (`soil_slopes` of the bond study), with each bond's interval written to
+    <out>/soil_bond.csv; None before the study has run."""
+    if not study.exists():
+        return None
+    bonds = soil_bonds()
+    parts = soil_slopes(read_table(study), holes, bonds)
+    if len(parts):
+        bond_cols = ["soil", "centre", "lo", "hi", "slope", "cone_mean", "cone_sd", "replicates", "seeds",
+                     "target_kpa"]        # the adopted bond and its half-width are soil_slopes' bond_kpa and bond_half_width_kpa
+        atomic_csv(parts.merge(bonds[bond_cols].rename(columns={"slope": "cone_slope_kpa_per_kpa"}), on="soil")
+                   .round(4), out / "soil_bond.csv",
+                   note + "; the cone-fitted bond's 95 % interval (kPa, from results/calibration/<soil>.csv and "
+                   "cone_checks.csv replicates) and each metric's slope in it (results/studies/soil_bond.csv against "
+                   "the same packing's validation strip); mm")
+    return parts
 
 
 def picture(t: pd.DataFrame, path: Path, preset: str) -> Path:
