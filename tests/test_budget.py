@@ -136,3 +136,24 @@ def test_the_soil_part_is_the_bond_slope_times_its_half_width_on_made_up_strips(
     row = budget_report.table(comparison, holes[holes.seed == 1], pd.DataFrame(columns=["metric"]), 6.0, None, None,
                               parts).iloc[0]
     assert row.soil_parameters == pytest.approx(1.5) and "soil_parameters" not in row.not_measured
+
+
+def test_the_bench_soils_part_is_their_posterior_strips_weighted_spread(tmp_path):
+    """The bench soils' part: 1.96 × the weighted SD of the posterior study's strips (reliability weights), written
+    beside the budget and taken by its table; before the posterior study has run there is none."""
+    import pandas as pd
+    from analysis.holes import budget_report
+    study = tmp_path / "soil_posterior.csv"
+    pd.DataFrame({"soil": "clay", "posterior_weight": [0.5, 0.25, 0.25], "found": 8,
+                  **{m: [50.0, 50.0, 50.0] for m in budget_report.METRICS}}).assign(h1=[10.0, 12.0, 8.0]).to_csv(
+        study, index=False)
+    parts = budget_report.posterior_soil_parts(tmp_path, "# made up", study)
+    h1 = parts.set_index("metric").loc["h1"]
+    assert h1.soil_part == pytest.approx(1.96 * np.sqrt(2 / 0.625)) and parts.set_index("metric").loc["L0"].soil_part == 0
+    assert (tmp_path / "soil_posterior.csv").exists()
+    comparison = pd.DataFrame([{"soil": "clay", "metric": "h1", "field_mean": 13.5, "sim_mean": 10.0, "band": 5.0,
+                                "calibration_target": False, "n_holes": 8, "n_runs": 1}])
+    holes = pd.DataFrame({"soil": "clay", "run": "a", "found": True, "h1": [9.0, 11.0]})
+    row = budget_report.table(comparison, holes, pd.DataFrame(columns=["metric"]), 6.0, None, None, parts).iloc[0]
+    assert row.soil_parameters == pytest.approx(h1.soil_part) and "soil_parameters" not in row.not_measured
+    assert budget_report.posterior_soil_parts(tmp_path, "# made up", tmp_path / "none.csv") is None
