@@ -204,6 +204,8 @@ def cmd_calibrate_bench(args) -> int:
         return 1
     bench.report()
     bench.write_posterior(args.soil, post, check, f"./holes calibrate --soil {args.soil} --bench")
+    print(f"calibrate {args.soil}: the posterior mean on packings {', '.join(map(str, cfg['check_seeds']))}: "
+          f"{bench.check_status(check)} (configs/soils/{args.soil}.toml [bench_posterior])")
     print(json.dumps({"posterior": post["mean"], "interval": post["interval"], "check": check}))
     return 0
 

@@ -705,16 +705,27 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
 POSTERIOR_HEAD = "# GrainLearning's posterior on the bench tests"
 
 
+def check_status(check_result: dict) -> str:
+    """The check's two verdicts in words: which responses a packing reads outside their target, and which the
+    packings' mean does.
+
+    >>> check_status({"c_kpa": {"every_packing_inside": True, "mean_inside": True},
+    ...               "collapse_deg": {"every_packing_inside": False, "mean_inside": False}})
+    "outside its target on a check packing: collapse_deg; the packings' mean outside: collapse_deg"
+    """
+    missed = [r for r, v in check_result.items() if not v["every_packing_inside"]]
+    off = [r for r, v in check_result.items() if not v["mean_inside"]]
+    return ("within every target on every check packing" if not missed else "outside its target on a check packing: "
+            + ", ".join(missed)) + ("; the packings' mean within every target" if not off else
+                                    "; the packings' mean outside: " + ", ".join(off))
+
+
 def posterior_block(soil: str, post: dict, check_result: dict, command: str) -> str:
     """The `[bench_posterior]` table a soil's config carries: the parameters held fixed, each calibrated parameter's
     posterior mean and 95 % interval,
     their correlations, the bench responses of the mean over the check packings, and whether every packing's
     response lies inside every target's range (status)."""
-    missed = [r for r, v in check_result.items() if not v["every_packing_inside"]]
-    off = [r for r, v in check_result.items() if not v["mean_inside"]]
-    status = ("within every target on every check packing" if not missed else "outside its target on a check packing: "
-              + ", ".join(missed)) + ("; the packings' mean within every target" if not off else
-                                      "; the packings' mean outside: " + ", ".join(off))
+    status = check_status(check_result)
     lines = [POSTERIOR_HEAD + f" (`{command}`), results/calibration/bench/{soil}-posterior.json; the runs of the",
              "# holes use [soil] above until it is adopted.", "[bench_posterior]", f'status = "{status}"']
     if post.get("fixed"):                     # held, not calibrated: the posterior holds with these only
