@@ -166,7 +166,7 @@ def overrides(params: dict, fixed: dict | None = None) -> list[str]:
 def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
     """Run (or reuse) the shear box and the collapse test of one parameter set on one packing; returns the
     responses with the parameters. An evaluation stopped between its tests reruns only the test it lacks
-    (`finished_scene`; `resumed` names the one read back, and `wall_s` is this run's time). A failed scene raises
+    (`scene_result`; `resumed` names the one read back, and `wall_s` is this run's time). A failed scene raises
     RuntimeError with its log's tail."""
     folder = Path(out_dir) / soil / evaluation_id(soil, seed, params, cfg)
     done = folder / "responses.json"
@@ -183,7 +183,7 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
     shear = ["--size", ",".join(map(str, cfg["size_mm"])), "--stress", ",".join(map(str, cfg["stresses_kpa"])),
              "--speed", str(cfg["speed_m_s"])]
     for scene, extra in (("shear", shear), ("collapse", ["--size", ",".join(map(str, collapse_size(cfg)))])):
-        results[scene] = finished_scene(folder, scene)
+        results[scene] = scene_result(folder, scene)
         if results[scene] is not None:       # a stopped evaluation resumes after its last finished test
             resumed.append(scene)
             continue
@@ -212,15 +212,16 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
 SCENE_DETAIL = {"shear": "tests", "collapse": "profile_mm"}   # what a scene's result file holds beyond its stdout
 
 
-def finished_scene(folder: Path, scene: str) -> dict | None:
-    """A bench scene's result in an evaluation's folder, as its last line of output gives it, if the scene finished
-    there (it writes its file atomically when it ends); None if not. The folder is named by every parameter and
-    setting (`evaluation_id`), so a file in it is this evaluation's."""
+def scene_result(folder: Path, scene: str) -> dict | None:
+    """A bench scene's result file in an evaluation's folder (the one holding its SCENE_DETAIL: the shear box's
+    tests, the collapse's profile), if the scene finished there (it writes the file atomically when it ends); None
+    if not. The folder is named by every parameter and setting (`evaluation_id`), so a file in it is this
+    evaluation's."""
     for path in sorted(folder.glob("*.json")):
         if path.name != "responses.json":
             data = json.loads(path.read_text())
             if SCENE_DETAIL[scene] in data:
-                return {k: v for k, v in data.items() if k != SCENE_DETAIL[scene]}
+                return data
     return None
 
 
@@ -228,20 +229,16 @@ def with_collapse_angle(row: dict, folder: Path) -> dict:
     """The evaluation's collapse slope, measured from its stored profile (analysis/soil/collapse.py) each time it is
     read, so a finished evaluation is measured the way the current code measures."""
     from analysis.soil.collapse import profile_angle
-    for path in folder.glob("*.json"):
-        data = json.loads(path.read_text())
-        if "profile_mm" in data:
-            return {**row, "collapse_deg": profile_angle(data["profile_mm"])}
-    raise RuntimeError(f"{folder}: no collapse profile")
+    data = scene_result(folder, "collapse")
+    if data is None:
+        raise RuntimeError(f"{folder}: no collapse profile")
+    return {**row, "collapse_deg": profile_angle(data["profile_mm"])}
 
 
 def _shear_peaks(folder: Path) -> list[float]:
     """The peak shear stresses (kPa) of the evaluation's shear box, one per normal stress."""
-    for path in folder.glob("*.json"):
-        tests = json.loads(path.read_text()).get("tests")
-        if tests:
-            return [t["tau_peak_kpa"] for t in tests]
-    return []
+    data = scene_result(folder, "shear")
+    return [t["tau_peak_kpa"] for t in data["tests"]] if data else []
 
 
 def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out_dir: Path = BENCH_DIR,

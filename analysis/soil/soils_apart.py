@@ -12,9 +12,8 @@ import pandas as pd
 from scipy import stats
 
 from analysis.core.io import atomic_csv
+from analysis.core.soil_config import SOILS
 from analysis.soil.bench_calibration import BENCH_DIR, RESPONSES, load_config, target_ranges
-
-SOILS = ("clay", "loam", "sand")
 
 
 def difference_interval(a, b, level: float = 0.95) -> tuple[float, float, float]:
