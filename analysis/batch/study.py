@@ -90,12 +90,11 @@ def load_study(path) -> tuple[dict, list[Case]]:
             if key not in seen:                    # trajectories may share a point: it runs once
                 seen.add(key)
                 cases.append(point)
+    weights = [None] * len(cases)                 # a [posterior] sample's weight, per case
     if "posterior" in data:
-        draws = posterior_cases(path, data["posterior"])
-        head = {**head, "posterior": {}}
-        for fields, weight in draws:
+        for fields, weight in posterior_cases(path, data["posterior"]):
             cases.append({**base, **fields})
-            head["posterior"][tuple(sorted(cases[-1].items()))] = weight
+            weights.append(weight)
     if not cases:
         raise ConfigError(f"{path}: no cases (give [grid] lists, [[case]] tables, a [morris] design or a [posterior])")
     checked = []
@@ -106,6 +105,8 @@ def load_study(path) -> tuple[dict, list[Case]]:
             raise ConfigError(f"{path}: case {i + 1} ({', '.join(f'{k}={v}' for k, v in c.items())}): {e}") from None
     if len({c.id for c in checked}) < len(checked):
         raise ConfigError(f"{path}: two cases have the same parameters")
+    if "posterior" in data:
+        head = {**head, "posterior": {c.id: w for c, w in zip(checked, weights) if w is not None}}
     return head, checked
 
 
@@ -244,9 +245,8 @@ def write_table(name: str, head: dict, cases: list[Case], rows: dict, runs_dir: 
     if not measured:
         return None
     table = pd.DataFrame(measured)
-    if head.get("posterior"):
-        weight = {c.id: head["posterior"].get(tuple(sorted(c.fields.items()))) for c in cases}
-        table["posterior_weight"] = table.run.map(weight)
+    if head.get("posterior"):                     # each case's weight, by its run id
+        table["posterior_weight"] = table.run.map(head["posterior"])
     note = stamp(command)
     atomic_csv(table.round(4), out / f"{name}.csv", note)
     if head.get("morris"):
