@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from analysis.core.io import atomic_csv, atomic_write, say
 from analysis.core.runner import run_process
@@ -508,25 +509,45 @@ def cone_transfer(soil: str, seeds: list[int], cfg: dict | None = None, out_dir:
     return table
 
 
+def difference_interval(a, b, level: float = 0.95) -> tuple[float, float, float]:
+    """The difference of two samples' means (b − a) and its Welch t interval.
+
+    >>> d, lo, hi = difference_interval([20, 22, 24], [10, 12, 14])
+    >>> round(d, 1), round(lo, 1), round(hi, 1)
+    (-10.0, -14.5, -5.5)
+    """
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    va, vb = a.var(ddof=1) / len(a), b.var(ddof=1) / len(b)
+    se = np.sqrt(va + vb)
+    dof = (va + vb) ** 2 / (va ** 2 / (len(a) - 1) + vb ** 2 / (len(b) - 1)) if se > 0 else np.inf
+    d = b.mean() - a.mean()
+    half = stats.t.ppf(0.5 + level / 2, dof) * se
+    return float(d), float(d - half), float(d + half)
+
+
 def size_verdict(table: pd.DataFrame) -> pd.DataFrame:
-    """Per response: the mean and SD over packings in the configured and the grown box, the shift of the mean and
-    whether it passes: the grown box moves the mean by less than the packings' SD in the configured box.
+    """Per response: the mean and SD over packings in the configured and the grown box, the shift of the mean with
+    its Welch 95 % interval, and whether it passes: the grown box moves the mean by less than the packings' SD in the
+    configured box.
 
     >>> t = pd.DataFrame({"box": ["configured"] * 3 + ["grown"] * 3, "c_kpa": [27, 28, 29, 21, 22, 23],
     ...                   "phi_deg": [27, 28, 29, 27.5, 28.5, 29.5], "collapse_deg": [33, 37, 35, 36, 35, 34]})
     >>> size_verdict(t)[["response", "shift", "passes"]].to_dict(orient="list")
     {'response': ['c_kpa', 'phi_deg', 'collapse_deg'], 'shift': [-6.0, 0.5, 0.0], 'passes': [False, True, True]}
+    >>> size_verdict(t)[["shift_lo", "shift_hi"]].round(1).to_dict(orient="list")
+    {'shift_lo': [-8.3, -1.8, -4.2], 'shift_hi': [-3.7, 2.8, 4.2]}
     """
     rows = []
     for r in RESPONSES:
         base = table.loc[table["box"] == "configured", r].to_numpy(float)
         grown = table.loc[table["box"] == "grown", r].to_numpy(float)
         sd = float(np.std(base, ddof=1)) if len(base) > 1 else math.nan
-        shift = float(grown.mean() - base.mean())
+        shift, lo, hi = difference_interval(base, grown) if len(base) > 1 and len(grown) > 1 else \
+            (float(grown.mean() - base.mean()), math.nan, math.nan)
         rows.append({"response": r, "configured_mean": float(base.mean()), "configured_sd": sd,
                      "grown_mean": float(grown.mean()),
                      "grown_sd": float(np.std(grown, ddof=1)) if len(grown) > 1 else math.nan,
-                     "shift": shift, "passes": bool(abs(shift) < sd)})
+                     "shift": shift, "shift_lo": lo, "shift_hi": hi, "passes": bool(abs(shift) < sd)})
     return pd.DataFrame(rows)
 
 

@@ -7,29 +7,11 @@ import itertools
 import json
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
-from scipy import stats
 
 from analysis.core.io import atomic_csv
 from analysis.core.soil_config import SOILS
-from analysis.soil.bench_calibration import BENCH_DIR, RESPONSES, load_config, target_ranges
-
-
-def difference_interval(a, b, level: float = 0.95) -> tuple[float, float, float]:
-    """The difference of two samples' means (b − a) and its Welch t interval.
-
-    >>> d, lo, hi = difference_interval([20, 22, 24], [10, 12, 14])
-    >>> round(d, 1), round(lo, 1), round(hi, 1)
-    (-10.0, -14.5, -5.5)
-    """
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    va, vb = a.var(ddof=1) / len(a), b.var(ddof=1) / len(b)
-    se = np.sqrt(va + vb)
-    dof = (va + vb) ** 2 / (va ** 2 / (len(a) - 1) + vb ** 2 / (len(b) - 1)) if se > 0 else np.inf
-    d = b.mean() - a.mean()
-    half = stats.t.ppf(0.5 + level / 2, dof) * se
-    return float(d), float(d - half), float(d + half)
+from analysis.soil.bench_calibration import BENCH_DIR, RESPONSES, difference_interval, load_config, target_ranges
 
 
 def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict]) -> pd.DataFrame:
