@@ -202,8 +202,8 @@ def cmd_calibrate_bench(args) -> int:
     except RuntimeError as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1
-    bench.report()
     bench.write_posterior(args.soil, post, check, f"./holes calibrate --soil {args.soil} --bench")
+    bench.report()
     print(f"calibrate {args.soil}: the posterior mean on packings {', '.join(map(str, cfg['check_seeds']))}: "
           f"{bench.check_status(check)} (configs/soils/{args.soil}.toml [bench_posterior])")
     print(json.dumps({"posterior": post["mean"], "interval": post["interval"], "check": check}))

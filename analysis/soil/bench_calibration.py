@@ -970,7 +970,8 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
     """Every calibrated soil's response surfaces over its filter's and check's evaluations, or over the iterations
     its running filter has finished (surfaces.csv), where they meet all its targets (the cone's too, where the
     filter fitted it) inside the common prior (feasible.csv), the set they put deepest inside them (deepest.csv) and
-    how far they pin each parameter (`margin_profile`: profiles.csv and .png)."""
+    how far they pin each parameter (`margin_profile`: profiles.csv and .png). A response with no more finished runs
+    than its plane's terms (a running filter's cones) is listed in surfaces.csv and left out of the rest."""
     bounds = bounds or load_config()["bounds"]
     from analysis.core.soil_config import SOILS
     rows, regions, deepest, profiles, sources = [], [], [], [], []
@@ -983,6 +984,7 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
         own = load_config(soil=soil)
         surf = response_surfaces(table, own["fixed"]).assign(soil=soil)
         rows.append(surf)
+        surf = surf[np.isfinite(surf["resid_sd"])]     # a plane with no more runs than terms has no scatter to count in
         targets = load_targets(soil)
         if "cone_kpa" in set(surf.response):
             targets.loc["cone_kpa", ["lo", "hi"]] = cone_range(soil, own)
