@@ -792,6 +792,24 @@ def test_while_a_filter_runs_the_report_draws_its_planes_and_profiles_over_the_f
     assert spread["damping"] < 0.2 * spread["normal_cohesion"]     # made_up_bench has no damping term
 
 
+def test_a_running_filter_with_fewer_cones_than_plane_terms_still_gets_its_report(tmp_path):
+    """The cone screened on all but five evaluations: its plane (six terms) has no scatter to count in, so
+    surfaces.csv lists it without a residual SD and the feasible region, the deepest set and the profiles stand on
+    the three bench responses."""
+    rng = np.random.default_rng(4)
+    cfg = bench.load_config(soil="sand")
+    rows = [{k: rng.uniform(lo, hi) for k, (lo, hi) in cfg["bounds"].items()} for _ in range(12)]
+    table = pd.DataFrame([{**p, **{r: v + rng.normal(0, 1) for r, v in made_up_bench(p).items()},
+                           "cone_kpa": 3.0 * p["normal_cohesion"] / 1e3 + 100 if i < 5 else np.nan,
+                           "iteration": 1} for i, p in enumerate(rows)])
+    table.to_csv(tmp_path / "sand-running.csv", index=False)
+    assert len(bench.report(tmp_path)) == 5
+    planes = pd.read_csv(tmp_path / "surfaces.csv", comment="#").set_index("response")
+    assert np.isnan(planes.loc["cone_kpa", "resid_sd"]) and planes.loc["cone_kpa", "n"] == 5
+    deepest = pd.read_csv(tmp_path / "deepest.csv", comment="#")
+    assert "cone_kpa" not in deepest and np.isfinite(deepest["margin_sd"]).all()
+
+
 def test_soils_apart_reads_a_response_as_telling_two_soils_apart_only_when_its_interval_leaves_zero_out(tmp_path):
     """Made-up checks: c differs by 12 kPa over a 1 kPa scatter (apart), φ by 0.3° over 1° (not); the parameter
     intervals are disjoint for the bond only; the soils' own targets decide `targets_apart`."""
