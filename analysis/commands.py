@@ -282,8 +282,9 @@ def cmd_cone_damage(args) -> int:
 def cmd_calibration_report(args) -> int:
     from analysis.soil import bench_calibration, calibration_report, soils_apart
     print(calibration_report.run().to_string(index=False))
-    for path in [*bench_calibration.report(), *soils_apart.run()]:
-        print(f"wrote {path}")
+    for path in [*bench_calibration.report(), *soils_apart.run(), soils_apart.filter_packing_run()]:
+        if path:
+            print(f"wrote {path}")
     return 0
 
 

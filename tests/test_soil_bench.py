@@ -837,3 +837,23 @@ def test_soils_apart_reads_a_response_as_telling_two_soils_apart_only_when_its_i
     assert params.loc["normal_cohesion", "apart"] and not params.loc["friction_deg", "apart"]
     (tmp_path / "loam-check.csv").unlink()
     assert soils_apart.run(tmp_path) == []                     # one soil checked: nothing to set apart
+
+
+def test_filter_packing_reads_an_offset_of_the_filters_packing_only_where_the_checks_resolve_it(tmp_path):
+    """Made-up posterior checks on packings 1-3: packing 1 reads c 3 kPa under the others (over 0.5 kPa of noise),
+    φ with no offset; the planes' deepest checks are no posteriors and stay out, earlier calibrations' folders count."""
+    from analysis.soil import soils_apart
+    assert soils_apart.filter_packing_run(tmp_path) is None                 # no check yet
+    rng = np.random.default_rng(7)
+    (tmp_path / "earlier").mkdir()
+    for i, name in enumerate(["clay-check.csv", "loam-check.csv", "earlier/sand-check.csv", "earlier/clay-check.csv"]):
+        c = 10 + 5 * i + rng.normal(0, 0.5, 3) + np.array([-3, 0, 0])
+        phi = 30 + rng.normal(0, 1.0, 3)
+        pd.DataFrame({"seed": [1, 2, 3], "c_kpa": c, "phi_deg": phi}).to_csv(tmp_path / name, index=False)
+    pd.DataFrame({"seed": [1, 2, 3], "c_kpa": [90, 0, 0], "phi_deg": [30, 30, 30]}) \
+        .to_csv(tmp_path / "loam-deepest-check.csv", index=False)
+    table = pd.read_csv(soils_apart.filter_packing_run(tmp_path), comment="#").set_index("response")
+    assert table.loc["c_kpa", "checks"] == 4 and table.loc["c_kpa", "below"] == 4
+    assert table.loc["c_kpa", "lo"] < -3 < table.loc["c_kpa", "hi"] < 0 and table.loc["c_kpa", "resolved"]
+    assert table.loc["phi_deg", "lo"] < 0 < table.loc["phi_deg", "hi"] and not table.loc["phi_deg", "resolved"]
+    assert "collapse_deg" not in table.index                                  # no check has it

@@ -2,12 +2,15 @@
 posteriors' checks (the posterior mean on the check packings, `<soil>-check.csv`) side by side with the interval of
 the difference, and each calibrated parameter's posterior interval (`<soil>-posterior.json`). A response tells two
 soils apart when the interval of the difference of their packings' means leaves zero out; whether the targets ask it
-to is whether the two soils' target ranges are disjoint."""
+to is whether the two soils' target ranges are disjoint. Beside them, how the filter's own packing reads against the
+other check packings over every posterior checked so far (`filter-packing.csv`)."""
 import itertools
 import json
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
+from scipy import stats
 
 from analysis.core.io import atomic_csv
 from analysis.core.soil_config import SOILS
@@ -64,3 +67,54 @@ def run(out_dir: Path = BENCH_DIR) -> list[Path]:
                "./holes calibration-report; per calibrated parameter and pair of soils, the posteriors' 95 % "
                "intervals and whether they are disjoint")
     return paths
+
+
+def filter_packing(checks: list[pd.DataFrame], seed: int) -> pd.DataFrame:
+    """Per bench response, over posterior checks each calibrated on packing `seed`: the mean offset of that packing's
+    reading from the other check packings' mean, its 95 % t interval, how many checks it pools and in how many the
+    filter's packing reads lower. A filter keeps the samples whose one packing read inside the targets, and that
+    packing's luck with them: an interval that leaves zero out says the posteriors read the response off on the
+    packings they were not fitted on. A check without the response, or without `seed` and another packing, is left
+    out; a response fewer than two checks have, too.
+
+    >>> t = lambda c: pd.DataFrame({"seed": [1, 2, 3], "c_kpa": c})
+    >>> r = filter_packing([t([10, 13, 13]), t([20, 22, 24]), t([5, 7, 8])], 1).iloc[0]
+    >>> r.response, r.checks, round(r.offset, 1), r.below, bool(r.hi < 0)
+    ('c_kpa', 3, -2.8, 3, True)
+    """
+    rows = []
+    for r in [*RESPONSES, "cone_kpa"]:
+        d = []
+        for t in checks:
+            if r not in t or "seed" not in t or t[r].isna().any():
+                continue
+            own, others = t.loc[t["seed"] == seed, r], t.loc[t["seed"] != seed, r]
+            if len(own) == 1 and len(others):
+                d.append(float(own.iloc[0] - others.mean()))
+        if len(d) < 2:
+            continue
+        d = np.array(d)
+        half = stats.t.ppf(0.975, len(d) - 1) * d.std(ddof=1) / np.sqrt(len(d))
+        rows.append({"response": r, "checks": len(d), "offset": d.mean(), "lo": d.mean() - half,
+                     "hi": d.mean() + half, "below": int((d < 0).sum()),
+                     "resolved": bool(d.mean() - half > 0 or d.mean() + half < 0)})
+    return pd.DataFrame(rows)
+
+
+def filter_packing_run(out_dir: Path = BENCH_DIR) -> Path | None:
+    """filter-packing.csv from every posterior's check in out_dir and its folders of earlier calibrations
+    (`<soil>-check.csv`; the checks of the planes' deepest sets are not posteriors and are left out); None when
+    fewer than two checks are there."""
+    out_dir = Path(out_dir)
+    files = sorted(f for f in [*out_dir.glob("*-check.csv"), *out_dir.glob("*/*-check.csv")]
+                   if not f.name.endswith("-deepest-check.csv"))
+    seed = int(load_config()["calibration_seed"])
+    table = filter_packing([pd.read_csv(f, comment="#") for f in files], seed)
+    if table.empty:
+        return None
+    path = out_dir / "filter-packing.csv"
+    atomic_csv(table.round(3), path,
+               f"./holes calibration-report; per bench response, over {len(files)} posterior checks (bench/ and its "
+               f"folders), packing {seed}'s reading (the filters') minus the other check packings' mean: mean, 95 % t "
+               "interval, checks pooled, and in how many it reads lower")
+    return path
