@@ -94,10 +94,10 @@ def filter_packing(checks: list[pd.DataFrame], seed: int) -> pd.DataFrame:
         if len(d) < 2:
             continue
         d = np.array(d)
+        offset = d.mean()
         half = stats.t.ppf(0.975, len(d) - 1) * d.std(ddof=1) / np.sqrt(len(d))
-        rows.append({"response": r, "checks": len(d), "offset": d.mean(), "lo": d.mean() - half,
-                     "hi": d.mean() + half, "below": int((d < 0).sum()),
-                     "resolved": bool(d.mean() - half > 0 or d.mean() + half < 0)})
+        rows.append({"response": r, "checks": len(d), "offset": offset, "lo": offset - half, "hi": offset + half,
+                     "below": int((d < 0).sum()), "resolved": bool(abs(offset) > half)})
     return pd.DataFrame(rows)
 
 
