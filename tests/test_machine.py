@@ -114,6 +114,37 @@ def test_adopting_one_variant_rewrites_its_section_and_keeps_the_others(tmp_path
         machine.adopted_variants("literal,deep")
 
 
+def test_the_bench_clays_fit_gets_its_own_sections_beside_the_cone_fitted_clays(tmp_path):
+    """A design on the bench-calibrated soils (its preset's soils = "bench") writes bench_literal and bench_surface,
+    each naming its variant, and leaves the cone-fitted clay's literal and surface, which other presets run, as they
+    were; the budget finds the variant's row of the fit from the section."""
+    from analysis.core.config import load_machine
+    from analysis.batch.study import load_study
+    _, cone = load_study(ROOT / "configs/studies/machine_clay.toml")
+    bench = machine.load_design(ROOT / "configs/studies/machine_clay_bench.toml")
+    want = {"literal": 75.6, "surface": 62.1, "h1": 13.5}
+    table = machine.fit(synthetic_rows([(80, 0.5), (80, 2.5), (95, 0.5), (95, 2.5)]), want, n_boot=100)
+    path = tmp_path / "machine.toml"
+    assert machine.write_machine(table, cone, path, "made by `cone`", want) == ["literal", "surface"]
+    surface = load_machine("surface", path)
+    deeper = machine.fit(synthetic_rows([(80, 0.5), (80, 2.5), (95, 0.5), (95, 2.5)]), {**want, "surface": 66.0},
+                         n_boot=100)
+    assert machine.write_machine(deeper, bench, path, "made by `bench`", want) == ["bench_literal", "bench_surface"]
+    assert load_machine("surface", path) == surface
+    bench_surface = load_machine("bench_surface", path)
+    assert bench_surface["variant"] == "surface" and bench_surface["made_by"] == "`bench`"
+    assert bench_surface["tool"]["disk.penetration"] > surface["tool"]["disk.penetration"] + 1   # its own, deeper fit
+
+
+def test_a_design_mixing_the_cone_fitted_and_the_bench_clay_is_refused(tmp_path):
+    design = (ROOT / "configs/studies/machine_clay_bench.toml").read_text()
+    mixed = tmp_path / "mixed.toml"
+    mixed.write_text(design + '\n[[case]]\npreset = "validation_medium"\n"disk.penetration" = 80.0\n'
+                     '"sleeve.stiffness" = 2.0\nseed = 1\n')
+    with pytest.raises(ConfigError, match="different soil sets"):
+        machine.load_design(mixed)
+
+
 def test_a_calibrated_preset_runs_the_calibrated_machine_and_the_others_keep_their_ids():
     import json
     from analysis.core.config import load_machine

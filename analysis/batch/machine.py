@@ -63,7 +63,23 @@ def load_design(path) -> list:
                               "calibrated on clay; loam and sand are predictions)")
         if P_KEY not in c.fields or K_KEY not in c.fields:
             raise ConfigError(f"{path}: every case needs {P_KEY} and {K_KEY} (base or grid)")
+    soil_sets = {c.params["preset"].get("soils", "") for c in cases}
+    if len(soil_sets) > 1:
+        raise ConfigError(f"{path}: its presets run different soil sets ({', '.join(repr(s) for s in sorted(soil_sets))}); "
+                          "allowed one: a machine is calibrated on one clay")
     return cases
+
+
+def section_of(variant: str, cases: list) -> str:
+    """configs/machine.toml's section a design's fit of `variant` is written to: the variant's name on the cone-fitted
+    clay, "bench_<variant>" on the bench-calibrated one (its preset's soils = "bench"), so that neither clay's machine
+    overwrites the other's, which other presets run.
+
+    >>> from types import SimpleNamespace as C
+    >>> section_of("surface", [C(params={"preset": {"soils": "bench"}})]), section_of("surface", [C(params={"preset": {}})])
+    ('bench_surface', 'surface')
+    """
+    return f"bench_{variant}" if cases and cases[0].params["preset"].get("soils") == "bench" else variant
 
 
 def vertical_load(folder: Path, lead_in: int, holes: int) -> float:
@@ -305,10 +321,11 @@ def sections_of(text: str) -> dict:
 
 def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want: dict,
                   fit_path: Path = ROOT / "results/calibration/machine_fit.csv") -> list[str]:
-    """Each variant of `table` with a fitted P and spring rate as a section of configs/machine.toml: the design's
+    """Each variant of `table` with a fitted P and spring rate as a section of configs/machine.toml (`section_of`,
+    with its `variant`): the design's
     other tool fields (the sleeve's rest, travel, preload: the same in every case) and the fitted two, rounded to
     0.1 mm and 0.01 N/mm, with the fit's status, intervals, source and the command that made it (`made_by`); the
-    file's sections of other variants stay as they are. Returns the variants written."""
+    file's other sections stay as they are. Returns the sections written."""
     tool = {}
     for key in cases[0].fields:
         if key.partition(".")[0] in ("disk", "sleeve") and key not in (P_KEY, K_KEY):
@@ -316,8 +333,9 @@ def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want:
             if len(values) == 1:
                 tool[key] = float(values.pop())
     head = ["# The machine's unknowns calibrated on clay (seed 001 Table 3, clay's means only), one section per "
-            "reading of §4.2's L2;", "# a preset's `machine` key names one. Written by `./holes calibrate-machine`, "
-            "each section by the command its made_by names: do not edit by hand.", ""]
+            "reading of §4.2's L2 and clay", "# (the cone-fitted clay's literal and surface, the bench-calibrated "
+            "clay's bench_literal and bench_surface);", "# a preset's `machine` key names one. Written by `./holes "
+            "calibrate-machine`, each section by the command its made_by names: do not edit by hand.", ""]
     sections = sections_of(path.read_text()) if path.exists() else {}
     written = []
     for r in table.itertuples():
@@ -325,15 +343,16 @@ def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want:
                 and r.stiffness > 0):
             continue
         values = {**tool, P_KEY: round(float(r.P), 1), K_KEY: round(float(r.stiffness), 2)}
-        lines = [f"[{r.variant}]", f'meaning = "{r.meaning}"', f'status = "{r.status}"',
+        name = section_of(r.variant, cases)
+        lines = [f"[{name}]", f'variant = "{r.variant}"', f'meaning = "{r.meaning}"', f'status = "{r.status}"',
                  f'source = "calibrated on clay, seed 001 Table 3 (L2 {want["surface"]:g}, h1 {want["h1"]:g} mm): '
                  f'{shown(fit_path)}, {r.runs} runs, {r.holes} holes"', f'fit = "{shown(fit_path)}"',
                  f"P_interval_mm = [{r.P_lo:.1f}, {r.P_hi:.1f}]",
                  f"stiffness_interval_n_per_mm = [{r.stiffness_lo:.2f}, {r.stiffness_hi:.2f}]",
                  f"made_by = {json.dumps(note.removeprefix('made by '), ensure_ascii=False)}",
-                 f"[{r.variant}.tool]", *(f'"{k}" = {v:g}' for k, v in values.items())]
-        sections[r.variant] = "\n".join(lines) + "\n"
-        written.append(r.variant)
+                 f"[{name}.tool]", *(f'"{k}" = {v:g}' for k, v in values.items())]
+        sections[name] = "\n".join(lines) + "\n"
+        written.append(name)
     if written:
         atomic_write(path, "\n".join(head) + "\n" + "\n".join(sections[k] for k in sorted(sections)))
     return written

@@ -194,8 +194,9 @@ def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Pat
     machine_rows = machine_fit = None
     if getattr(p, "machine", None) and (Path(machine_dir) / "machine_fit.csv").exists():
         fits = read_table(Path(machine_dir) / "machine_fit.csv").set_index("variant")
-        if p.machine in fits.index:
-            machine_fit = fits.loc[p.machine]
+        variant = load_machine(p.machine).get("variant", p.machine)        # a bench clay's section names its variant
+        if variant in fits.index:
+            machine_fit = fits.loc[variant]
             machine_rows = read_table(Path(machine_dir) / "machine.csv")
     note = stamp(f"./holes budget --preset {preset}")
     soil_parts = posterior_soil_parts(Path(out), note) if p.soils == "bench" else bond_soil_parts(holes, Path(out), note)
