@@ -322,10 +322,9 @@ def sections_of(text: str) -> dict:
 def write_machine(table: pd.DataFrame, cases: list, path: Path, note: str, want: dict,
                   fit_path: Path = ROOT / "results/calibration/machine_fit.csv") -> list[str]:
     """Each variant of `table` with a fitted P and spring rate as a section of configs/machine.toml (`section_of`,
-    with its `variant`): the design's
-    other tool fields (the sleeve's rest, travel, preload: the same in every case) and the fitted two, rounded to
-    0.1 mm and 0.01 N/mm, with the fit's status, intervals, source and the command that made it (`made_by`); the
-    file's other sections stay as they are. Returns the sections written."""
+    naming its `variant`): the design's other tool fields (the sleeve's rest, travel, preload: the same in every
+    case) and the fitted two, rounded to 0.1 mm and 0.01 N/mm, with the fit's status, intervals, source and the
+    command that made it (`made_by`); the file's other sections stay as they are. Returns the sections written."""
     tool = {}
     for key in cases[0].fields:
         if key.partition(".")[0] in ("disk", "sleeve") and key not in (P_KEY, K_KEY):
