@@ -270,3 +270,26 @@ def test_adopt_writes_the_fit_where_the_presets_read_it(monkeypatch, capsys):
                     (None, ("literal", "surface"))]
     assert cli.main(["calibrate-machine", "configs/studies/machine_clay_r6.toml", "--no-run", "--adopt", "deep"]) == 2
     assert "'deep' is not a variant" in capsys.readouterr().err and len(seen) == 3
+
+
+def test_an_adopted_fit_also_keeps_its_folders_own_record(tmp_path, monkeypatch):
+    """`--adopt surface --out F`: configs/machine.toml gets the surface section only, and F/machine.toml, the folder's
+    record of its fit, gets every variant the fit determined, so the two never disagree with F/machine_fit.csv."""
+    from analysis.batch import compare_job
+    from analysis.core.config import load_machine
+    cases = machine.load_design(ROOT / "configs/studies/machine_clay_r6.toml")
+
+    def rows(case, folder):
+        one = synthetic_rows([(case.fields[machine.P_KEY], case.fields[machine.K_KEY])], holes=4, seed=case.fields["seed"])
+        return one.assign(run=case.id, seed=case.fields["seed"])
+    monkeypatch.setattr(machine, "finished", lambda runs_dir, run_id: True)
+    monkeypatch.setattr(machine, "run_rows", rows)
+    monkeypatch.setattr(machine, "draw_sections", lambda found, path: None)
+    monkeypatch.setattr(compare_job, "keep", lambda src, dst: None)
+    adopted, out = tmp_path / "configs_machine.toml", tmp_path / "fit"
+    assert machine.run(ROOT / "configs/studies/machine_clay_r6.toml", runs_dir=tmp_path, out=out, no_run=True,
+                       machine_path=adopted, variants=("surface",)) == 0
+    assert sorted(machine.sections_of(adopted.read_text())) == ["surface"]
+    assert sorted(machine.sections_of((out / "machine.toml").read_text())) == ["literal", "surface"]
+    assert load_machine("surface", adopted)["tool"] == load_machine("surface", out / "machine.toml")["tool"]
+    assert len(cases) == len(pd.read_csv(out / "machine.csv", comment="#").run.unique())

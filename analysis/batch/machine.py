@@ -228,7 +228,8 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
         no_run: bool = False, scheduler: str | None = None, machine_path=None, variants: tuple = tuple(VARIANTS)) -> int:
     """Run the design's missing cases (unless `no_run`), measure and keep every finished one, write
     machine.csv (every hole) and machine_fit.csv (both variants), and the fitted values of `variants` to
-    configs/machine.toml (`machine_path`), where a preset's `machine` key reads them; its other sections stay."""
+    configs/machine.toml (`machine_path`), where a preset's `machine` key reads them; its other sections stay. An
+    --out folder keeps every variant's values in its own machine.toml, adopted or not."""
     from analysis.core.bed_spec import BED_DIR
     from analysis.core.runner import scene_args
     from analysis.holes.compare import field_table
@@ -273,6 +274,8 @@ def run(design=DESIGN, workers: int | None = None, threads: int | None = None, r
                stamp(command) + f"; fitted on clay's field means only (L2 {want['surface']:g}, h1 {want['h1']:g} mm)")
     written = write_machine(table[table.variant.isin(variants)], cases, machine_path, stamp(command), want,
                             out / "machine_fit.csv")
+    if not default_out and machine_path != out / "machine.toml":   # adopted: the folder's own record still follows its fit
+        write_machine(table, cases, out / "machine.toml", stamp(command), want, out / "machine_fit.csv")
     if written:
         say(f"calibrate-machine: {', '.join(written)} written to {machine_path}")
         if machine_path == ROOT / MACHINE:              # the parameter page shows the configs' values
