@@ -117,7 +117,7 @@ def test_adopting_one_variant_rewrites_its_section_and_keeps_the_others(tmp_path
 def test_the_bench_clays_fit_gets_its_own_sections_beside_the_cone_fitted_clays(tmp_path):
     """A design on the bench-calibrated soils (its preset's soils = "bench") writes bench_literal and bench_surface,
     each naming its variant, and leaves the cone-fitted clay's literal and surface, which other presets run, as they
-    were; the budget finds the variant's row of the fit from the section."""
+    were; the section's `variant` names its row of the fit (where the budget looks it up)."""
     from analysis.core.config import load_machine
     from analysis.batch.study import load_study
     _, cone = load_study(ROOT / "configs/studies/machine_clay.toml")

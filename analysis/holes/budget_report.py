@@ -178,7 +178,8 @@ def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Pat
     from analysis.core.config import load_machine, load_preset, load_resolution
     p = load_preset(preset)
     chosen = machine_dir is not None
-    fitted = load_machine(p.machine).get("fit") if getattr(p, "machine", None) else None   # where its values came from
+    section = load_machine(p.machine) if getattr(p, "machine", None) else {}
+    fitted = section.get("fit")                         # where its values came from
     machine_dir = Path(machine_dir or (ROOT / Path(fitted).parent if fitted else ROOT / "results/calibration"))
     if chosen and not (machine_dir / "machine_fit.csv").exists():
         raise ConfigError(f"--machine-dir {shown(machine_dir)}: no machine_fit.csv there; allowed a folder "
@@ -194,7 +195,7 @@ def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Pat
     machine_rows = machine_fit = None
     if getattr(p, "machine", None) and (Path(machine_dir) / "machine_fit.csv").exists():
         fits = read_table(Path(machine_dir) / "machine_fit.csv").set_index("variant")
-        variant = load_machine(p.machine).get("variant", p.machine)        # a bench clay's section names its variant
+        variant = section.get("variant", p.machine)     # a bench clay's section names its variant
         if variant in fits.index:
             machine_fit = fits.loc[variant]
             machine_rows = read_table(Path(machine_dir) / "machine.csv")
