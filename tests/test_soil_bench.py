@@ -192,6 +192,29 @@ def test_a_test_the_scene_stopped_is_kept_as_failed_and_weighs_nothing(tmp_path,
     assert weights[np.asarray([p["friction_deg"] < 15 for p in seen[-12:]])].sum() < 1e-6
 
 
+def test_a_filter_with_packings_in_turn_runs_each_iterations_samples_on_every_packing(tmp_path, monkeypatch):
+    """calibration_seed = [1, 2, 3]: an iteration's samples take the packings in turn, so each packing carries a third
+    of them and a sample's packing follows its place in the iteration."""
+    calls = []
+
+    def fake(soil, seed, params, cfg, out_dir):
+        calls.append(seed)
+        return {"soil": soil, "seed": seed, **params, **made_up_bench(params), "tau_peak_kpa": [], "wall_s": 0.0}
+    monkeypatch.setattr(bench, "evaluate", fake)
+    cfg = {**bench.load_config(), "samples": 6, "iterations": 2, "workers": 1, "calibration_seed": [1, 2, 3]}
+    bench.calibrate("clay", cfg, tmp_path)
+    assert calls == [1, 2, 3] * 4
+    assert pd.read_csv(tmp_path / "clay.csv", comment="#").seed.tolist() == calls
+
+
+@pytest.mark.parametrize("value", ["0", "[1, 1]", "[]", '"1"', "true"])
+def test_the_filters_packings_are_distinct_seeds(tmp_path, value):
+    text = bench.CONFIG.read_text().replace("calibration_seed = 1 ", f"calibration_seed = {value} ")
+    (tmp_path / "b.toml").write_text(text)
+    with pytest.raises(ConfigError, match="bench.calibration_seed"):
+        bench.load_config(tmp_path / "b.toml")
+
+
 @pytest.mark.parametrize("line, match", [("phi_deg = 0.0", "packing_scatter.phi_deg"),
                                          ("h1 = 1.0", "packing_scatter.h1")])
 def test_a_packing_scatter_is_an_sd_of_a_bench_response(tmp_path, line, match):

@@ -70,6 +70,11 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
         for name, rng in ranges.items():
             if len(rng) != 2 or not rng[0] < rng[1]:
                 raise ConfigError(f"{path}: {where}.{name} = {rng}: allowed [lo, hi] with lo < hi")
+    turn = bench["calibration_seed"]
+    turn = turn if isinstance(turn, list) else [turn]
+    if not turn or any(isinstance(t, bool) or not isinstance(t, int) or t < 1 for t in turn) or len(set(turn)) < len(turn):
+        raise ConfigError(f"{path}: bench.calibration_seed = {bench['calibration_seed']!r}: allowed a packing seed (1 or "
+                          "more), or a list of distinct ones that the filter's samples take in turn")
     column = bench.get("collapse_size_mm")
     if column is not None and (len(column) != 3 or any(float(v) <= 0 for v in column)):
         raise ConfigError(f"{path}: bench.collapse_size_mm = {column}: allowed three lengths above 0 mm (the collapse "
@@ -260,6 +265,27 @@ def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out
     return in_parallel(one, list(range(len(seeds_params))), int(cfg["workers"]), f"calibrate {soil}", "evaluations")
 
 
+def filter_seeds(cfg: dict) -> list[int]:
+    """The packings the filter's evaluations run on: [bench] calibration_seed, one seed or a list the samples take in
+    turn (sample i of every iteration on the list's (i mod its length)-th), so that a sample's weight carries the
+    packings' scatter instead of one packing's luck.
+
+    >>> filter_seeds({"calibration_seed": 1}), filter_seeds({"calibration_seed": [1, 2, 3]})
+    ([1], [1, 2, 3])
+    """
+    seeds = cfg["calibration_seed"]
+    return [int(s) for s in (seeds if isinstance(seeds, list) else [seeds])]
+
+
+def in_turn(seeds: list[int], rows: list) -> list[tuple[int, dict]]:
+    """Each of an iteration's parameter sets with its packing: the seeds in turn.
+
+    >>> in_turn([1, 2], [{"a": 0}, {"a": 1}, {"a": 2}])
+    [(1, {'a': 0}), (2, {'a': 1}), (1, {'a': 2})]
+    """
+    return [(seeds[i % len(seeds)], p) for i, p in enumerate(rows)]
+
+
 def in_parallel(fn, jobs: list, workers: int, label: str, unit: str) -> list:
     """fn of each job, `workers` at a time (threads, each starting its own YADE process), in the jobs' order;
     after each one says how many are done, the time so far and an ETA."""
@@ -285,7 +311,7 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     from analysis.soil.bayes import calibrate as bayes
     cfg = cfg or load_config(soil=soil)
     targets = load_targets(soil)
-    seed = int(cfg["calibration_seed"])
+    seeds = filter_seeds(cfg)
     history = []
     running = Path(out_dir) / f"{soil}-running.csv"
 
@@ -298,7 +324,7 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     screen = cone_screen(ranges, cfg)
 
     def model_batch(rows: list[dict]) -> list[dict]:
-        out = evaluate_all(soil, [(seed, p) for p in rows], cfg, out_dir, with_cone=bool(cfg.get("cone_target")),
+        out = evaluate_all(soil, in_turn(seeds, rows), cfg, out_dir, with_cone=bool(cfg.get("cone_target")),
                            screen=screen)
         history.append(out)
         atomic_csv(finished(), running, f"./holes calibrate --soil {soil} --bench: the filter's finished iterations, "
@@ -624,7 +650,7 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
 
 
 def probes(soil: str, sets: list[dict], cfg: dict, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
-    """Chosen parameter sets' bench responses and cone index on the calibration's packing, cfg's workers at a time:
+    """Chosen parameter sets' bench responses and cone index on the calibration's (first) packing, cfg's workers at a time:
     where a soil's prior should lie, looked at before a filter spends its iterations there. Each set names every
     calibrated parameter (cfg's bounds); each evaluation is a run folder like the filter's and reused by it. Writes
     <out_dir>/<soil>-probes.csv (these probes and earlier ones)."""
@@ -633,7 +659,7 @@ def probes(soil: str, sets: list[dict], cfg: dict, out_dir: Path = BENCH_DIR) ->
         if set(p) != names:
             raise ConfigError(f"--probe {','.join(sorted(p))}: allowed exactly the calibrated parameters "
                               f"{', '.join(sorted(names))}, each NAME=VALUE")
-    seed = int(cfg["calibration_seed"])
+    seed = filter_seeds(cfg)[0]
     rows = evaluate_all(soil, [(seed, dict(p)) for p in sets], cfg, out_dir, with_cone=True)
     table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
     path = Path(out_dir) / f"{soil}-probes.csv"

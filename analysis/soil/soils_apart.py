@@ -14,7 +14,8 @@ from scipy import stats
 
 from analysis.core.io import atomic_csv
 from analysis.core.soil_config import SOILS
-from analysis.soil.bench_calibration import BENCH_DIR, RESPONSES, difference_interval, load_config, target_ranges
+from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, difference_interval, filter_seeds, load_config,
+                                             target_ranges)
 
 
 def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict]) -> pd.DataFrame:
@@ -108,7 +109,7 @@ def filter_packing_run(out_dir: Path = BENCH_DIR) -> Path | None:
     out_dir = Path(out_dir)
     files = sorted(f for f in [*out_dir.glob("*-check.csv"), *out_dir.glob("*/*-check.csv")]
                    if not f.name.endswith("-deepest-check.csv"))
-    seed = int(load_config()["calibration_seed"])
+    seed = filter_seeds(load_config())[0]
     table = filter_packing([pd.read_csv(f, comment="#") for f in files], seed)
     if table.empty:
         return None
