@@ -157,3 +157,15 @@ def test_the_bench_soils_part_is_their_posterior_strips_weighted_spread(tmp_path
     row = budget_report.table(comparison, holes, pd.DataFrame(columns=["metric"]), 6.0, None, None, parts).iloc[0]
     assert row.soil_parameters == pytest.approx(h1.soil_part) and "soil_parameters" not in row.not_measured
     assert budget_report.posterior_soil_parts(tmp_path, "# made up", tmp_path / "none.csv") is None
+
+
+def test_a_budget_written_elsewhere_names_its_folder_and_leaves_the_validations_alone(tmp_path):
+    """`budget --out F`: the table, its picture and the soil part's table go to F, whose stamp names --out F; the
+    validation's own budget is not touched."""
+    from analysis import cli
+    from analysis.holes import budget_report
+    kept = (budget_report.OUT / "error_budget.csv").read_bytes()
+    assert cli.main(["budget", "--preset", "validation", "--out", str(tmp_path)]) == 0
+    assert {p.name for p in tmp_path.iterdir()} >= {"error_budget.csv", "error_budget.png"}
+    assert f"--out {tmp_path}" in (tmp_path / "error_budget.csv").read_text().splitlines()[0]
+    assert (budget_report.OUT / "error_budget.csv").read_bytes() == kept

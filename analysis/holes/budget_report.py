@@ -199,15 +199,16 @@ def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Pat
         if variant in fits.index:
             machine_fit = fits.loc[variant]
             machine_rows = read_table(Path(machine_dir) / "machine.csv")
-    note = stamp(f"./holes budget --preset {preset}")
+    command = (f"./holes budget --preset {preset}" + (f" --machine-dir {shown(machine_dir)}" if chosen else "")
+               + ("" if Path(out) == OUT else f" --out {shown(out)}"))
+    note = stamp(command)
     soil_parts = posterior_soil_parts(Path(out), note) if p.soils == "bench" else bond_soil_parts(holes, Path(out), note)
     t = table(comparison, holes, grain, radius_mm, machine_rows, machine_fit, soil_parts)
     t = t[["soil", "metric", "calibration_target", "field_mean", "sim_mean", "n_holes", "n_runs", "miss", "grain_size",
            "grain_size_lo", "grain_size_hi", "model", "measurement", "machine", "packing", "soil_parameters",
            "uncertain", "resolved", "dominant", "not_measured"]]
-    command = f"./holes budget --preset {preset}" + (f" --machine-dir {shown(machine_dir)}" if chosen else "")
     path = Path(out) / "error_budget.csv"
-    atomic_csv(t.round(3), path, stamp(command) + f"; mm; the miss (sim − field) = grain_size + model; 95 % half-widths "
+    atomic_csv(t.round(3), path, note + f"; mm; the miss (sim − field) = grain_size + model; 95 % half-widths "
                f"measurement, machine ({p.machine} fit), packing, soil; r = {radius_mm:g} mm")
     return [path, picture(t, Path(out) / "error_budget.png", preset)]
 
