@@ -196,9 +196,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "comma-separated) only those sections, the others kept as they are")
     p.set_defaults(func=cmd_calibrate_machine)
     p = sub.add_parser("compare", help="the main job: run, measure and set the holes beside the field's Table 3")
-    p.add_argument("--preset", default="validation_medium",
-                   help="run preset of configs/presets.toml (default validation_medium: the machine calibrated on "
-                   "clay, 8 holes per soil, r = 6 mm grains; validation_surface is the same at r = 5 mm)")
+    p.add_argument("--preset", default="bench_validation_medium",
+                   help="run preset of configs/presets.toml (default bench_validation_medium: the bench-calibrated "
+                   "soils and the machine calibrated on that clay, 8 holes per soil, r = 6 mm grains; "
+                   "bench_validation the same over packings 1-3; validation_medium the cone-fitted soils)")
     p.add_argument("--soils", default="clay,loam,sand", help="the soils to run (default all three); the preset's "
                    "table also keeps every other soil's finished or kept run of the same settings and seeds")
     p.add_argument("--seeds", type=option("--seeds", SEED, many=True),
@@ -213,8 +214,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("budget", help="the error budget of a compared preset: each miss against the field split into "
                        "grain size, model, measurement, machine, packing and soil (results/validation/)")
-    p.add_argument("--preset", default="validation_medium", help="a preset of results/comparison.csv (default "
-                   "validation_medium, the main job's)")
+    p.add_argument("--preset", default="bench_validation_medium", help="a preset of results/comparison.csv (default "
+                   "bench_validation_medium, the main job's)")
     p.add_argument("--machine-dir", type=folder("--machine-dir"), default=None,
                    help="the machine calibration whose intervals and design slopes are propagated: its machine_fit.csv "
                    "and machine.csv (default: the folder of the fit configs/machine.toml holds for the preset's "

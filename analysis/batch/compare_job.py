@@ -35,7 +35,8 @@ from analysis.core.io import atomic_csv, atomic_write, read_table, stamp
 KEPT = ("holes.csv", "summary.json", "config.json", "state.npz")   # a run's files kept beside the table
 KEPT_IF_THERE = ("load.json",)      # the calibrated machine's load W (analysis/batch/machine.py load_of)
 # results/comparison.md: the main job first, then its validation over three packings
-MD_ORDER = ("validation_medium", "validation", "validation_surface", "quick", "graded", "paper")
+MD_ORDER = ("bench_validation_medium", "bench_validation", "validation_medium", "validation", "validation_surface",
+            "quick", "graded", "paper")
 
 
 def run(preset: str, soils: list[str], seeds: list[int] | None = None, threads: int | None = None, parallel: int | None = None,

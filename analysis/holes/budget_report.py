@@ -170,7 +170,7 @@ def table(comparison: pd.DataFrame, holes: pd.DataFrame, grain: pd.DataFrame, ra
     return pd.DataFrame(rows)
 
 
-def run(preset: str = "validation_medium", out: Path = OUT, comparison_path: Path = ROOT / "results/comparison.csv",
+def run(preset: str = "bench_validation_medium", out: Path = OUT, comparison_path: Path = ROOT / "results/comparison.csv",
         machine_dir: Path | None = None) -> list[Path]:
     """results/validation/error_budget.csv and error_budget.png for `preset`'s rows of the comparison, the machine's
     part from the calibration in `machine_dir` (default: the folder of the fit configs/machine.toml holds, else
