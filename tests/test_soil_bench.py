@@ -207,7 +207,7 @@ def test_a_filter_with_packings_in_turn_runs_each_iterations_samples_on_every_pa
     assert pd.read_csv(tmp_path / "clay.csv", comment="#").seed.tolist() == calls
 
 
-@pytest.mark.parametrize("value", ["0", "[1, 1]", "[]", '"1"', "true"])
+@pytest.mark.parametrize("value", ["-1", "[1, 1]", "[]", '"1"', "true", "[1, -2]"])
 def test_the_filters_packings_are_distinct_seeds(tmp_path, value):
     text = bench.CONFIG.read_text().replace("calibration_seed = 1 ", f"calibration_seed = {value} ")
     (tmp_path / "b.toml").write_text(text)

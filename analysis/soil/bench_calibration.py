@@ -72,8 +72,8 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
                 raise ConfigError(f"{path}: {where}.{name} = {rng}: allowed [lo, hi] with lo < hi")
     turn = bench["calibration_seed"]
     turn = turn if isinstance(turn, list) else [turn]
-    if not turn or any(isinstance(t, bool) or not isinstance(t, int) or t < 1 for t in turn) or len(set(turn)) < len(turn):
-        raise ConfigError(f"{path}: bench.calibration_seed = {bench['calibration_seed']!r}: allowed a packing seed (1 or "
+    if not turn or any(isinstance(t, bool) or not isinstance(t, int) or t < 0 for t in turn) or len(set(turn)) < len(turn):
+        raise ConfigError(f"{path}: bench.calibration_seed = {bench['calibration_seed']!r}: allowed a packing seed (0 or "
                           "more), or a list of distinct ones that the filter's samples take in turn")
     column = bench.get("collapse_size_mm")
     if column is not None and (len(column) != 3 or any(float(v) <= 0 for v in column)):
