@@ -221,7 +221,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "and machine.csv (default: the folder of the fit configs/machine.toml holds for the preset's "
                    "machine, its `fit`)")
     p.add_argument("--out", type=folder("--out"), default=None,
-                   help="where error_budget.csv and .png and the soil part's table go (default results/validation)")
+                   help="where error_budget.csv and .png and the soil part's table go (default results/validation for "
+                   "the validation preset, results/validation/<preset>/ for any other)")
     p.set_defaults(func=cmd_budget)
     p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
     p.add_argument("file", nargs="+", help="study file(s), e.g. configs/studies/slip.toml; several run as one batch")

@@ -143,7 +143,7 @@ def cmd_rings(args) -> int:
 def cmd_budget(args) -> int:
     from analysis.holes import budget_report
     try:
-        for path in budget_report.run(args.preset, out=args.out or budget_report.OUT, machine_dir=args.machine_dir):
+        for path in budget_report.run(args.preset, out=args.out, machine_dir=args.machine_dir):
             print(f"wrote {path}")
     except ConfigError as e:
         print(f"budget: {e}", file=sys.stderr)

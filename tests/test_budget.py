@@ -169,3 +169,14 @@ def test_a_budget_written_elsewhere_names_its_folder_and_leaves_the_validations_
     assert {p.name for p in tmp_path.iterdir()} >= {"error_budget.csv", "error_budget.png"}
     assert f"--out {tmp_path}" in (tmp_path / "error_budget.csv").read_text().splitlines()[0]
     assert (budget_report.OUT / "error_budget.csv").read_bytes() == kept
+
+
+def test_without_out_a_budget_goes_to_its_presets_default_folder_and_its_stamp_names_no_out(tmp_path, monkeypatch):
+    """Without --out the budget lands in `default_out(preset)` (results/validation for the validation preset,
+    results/validation/<preset>/ for any other: its doctest), and its stamp is the plain command."""
+    from analysis import cli
+    from analysis.holes import budget_report
+    monkeypatch.setattr(budget_report, "default_out", lambda preset: tmp_path / preset)
+    assert cli.main(["budget", "--preset", "validation"]) == 0
+    first = (tmp_path / "validation" / "error_budget.csv").read_text().splitlines()[0]
+    assert "`./holes budget --preset validation` at" in first and "--out" not in first

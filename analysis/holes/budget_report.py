@@ -33,6 +33,17 @@ from analysis.holes.compare import kept_holes, packing_holes, shift_from_holes, 
 
 METRICS = ("L0", "L1", "L2", "L2_surface", "h1")
 OUT = ROOT / "results/validation"
+OWN = "validation"          # the preset whose budget OUT itself holds (the README's validation section reads it)
+
+
+def default_out(preset: str) -> Path:
+    """Where a preset's budget goes unless --out says: OUT for OWN, OUT/<preset>/ for any other, so that no budget
+    overwrites the one the README reads.
+
+    >>> default_out("validation") == OUT, default_out("bench_validation") == OUT / "bench_validation"
+    (True, True)
+    """
+    return OUT if preset == OWN else OUT / preset
 
 
 def grain_shift(grain: pd.DataFrame, radius_mm: float) -> dict:
@@ -170,11 +181,12 @@ def table(comparison: pd.DataFrame, holes: pd.DataFrame, grain: pd.DataFrame, ra
     return pd.DataFrame(rows)
 
 
-def run(preset: str = "bench_validation_medium", out: Path = OUT, comparison_path: Path = ROOT / "results/comparison.csv",
-        machine_dir: Path | None = None) -> list[Path]:
-    """results/validation/error_budget.csv and error_budget.png for `preset`'s rows of the comparison, the machine's
-    part from the calibration in `machine_dir` (default: the folder of the fit configs/machine.toml holds, else
-    results/calibration)."""
+def run(preset: str = "bench_validation_medium", out: Path | None = None,
+        comparison_path: Path = ROOT / "results/comparison.csv", machine_dir: Path | None = None) -> list[Path]:
+    """error_budget.csv and error_budget.png in `out` (default `default_out(preset)`) for `preset`'s rows of the
+    comparison, the machine's part from the calibration in `machine_dir` (default: the folder of the fit
+    configs/machine.toml holds, else results/calibration)."""
+    out = Path(out or default_out(preset))
     from analysis.core.config import load_machine, load_preset, load_resolution
     p = load_preset(preset)
     chosen = machine_dir is not None
@@ -200,7 +212,7 @@ def run(preset: str = "bench_validation_medium", out: Path = OUT, comparison_pat
             machine_fit = fits.loc[variant]
             machine_rows = read_table(Path(machine_dir) / "machine.csv")
     command = (f"./holes budget --preset {preset}" + (f" --machine-dir {shown(machine_dir)}" if chosen else "")
-               + ("" if Path(out) == OUT else f" --out {shown(out)}"))
+               + ("" if out == default_out(preset) else f" --out {shown(out)}"))
     note = stamp(command)
     soil_parts = posterior_soil_parts(Path(out), note) if p.soils == "bench" else bond_soil_parts(holes, Path(out), note)
     t = table(comparison, holes, grain, radius_mm, machine_rows, machine_fit, soil_parts)
