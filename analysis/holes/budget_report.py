@@ -214,15 +214,15 @@ def run(preset: str = "bench_validation_medium", out: Path | None = None,
     command = (f"./holes budget --preset {preset}" + (f" --machine-dir {shown(machine_dir)}" if chosen else "")
                + ("" if out == default_out(preset) else f" --out {shown(out)}"))
     note = stamp(command)
-    soil_parts = posterior_soil_parts(Path(out), note) if p.soils == "bench" else bond_soil_parts(holes, Path(out), note)
+    soil_parts = posterior_soil_parts(out, note) if p.soils == "bench" else bond_soil_parts(holes, out, note)
     t = table(comparison, holes, grain, radius_mm, machine_rows, machine_fit, soil_parts)
     t = t[["soil", "metric", "calibration_target", "field_mean", "sim_mean", "n_holes", "n_runs", "miss", "grain_size",
            "grain_size_lo", "grain_size_hi", "model", "measurement", "machine", "packing", "soil_parameters",
            "uncertain", "resolved", "dominant", "not_measured"]]
-    path = Path(out) / "error_budget.csv"
+    path = out / "error_budget.csv"
     atomic_csv(t.round(3), path, note + f"; mm; the miss (sim − field) = grain_size + model; 95 % half-widths "
                f"measurement, machine ({p.machine} fit), packing, soil; r = {radius_mm:g} mm")
-    return [path, picture(t, Path(out) / "error_budget.png", preset)]
+    return [path, picture(t, out / "error_budget.png", preset)]
 
 
 def posterior_soil_parts(out: Path, note: str, study: Path = ROOT / "results/studies/soil_posterior.csv"):

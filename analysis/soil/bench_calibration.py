@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from analysis.core.config import SEED
 from analysis.core.io import atomic_csv, atomic_write, say
 from analysis.core.runner import run_process
 from analysis.core.schema import ROOT, ConfigError
@@ -70,11 +71,10 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
         for name, rng in ranges.items():
             if len(rng) != 2 or not rng[0] < rng[1]:
                 raise ConfigError(f"{path}: {where}.{name} = {rng}: allowed [lo, hi] with lo < hi")
-    turn = bench["calibration_seed"]
-    turn = turn if isinstance(turn, list) else [turn]
-    if not turn or any(isinstance(t, bool) or not isinstance(t, int) or t < 0 for t in turn) or len(set(turn)) < len(turn):
-        raise ConfigError(f"{path}: bench.calibration_seed = {bench['calibration_seed']!r}: allowed a packing seed (0 or "
-                          "more), or a list of distinct ones that the filter's samples take in turn")
+    turn = [SEED.check(f"{path}: bench.calibration_seed", s) for s in filter_seeds(bench)]
+    if not turn or len(set(turn)) < len(turn):
+        raise ConfigError(f"{path}: bench.calibration_seed = {bench['calibration_seed']!r}: allowed a packing seed, or a "
+                          "list of distinct ones that the filter's samples take in turn")
     column = bench.get("collapse_size_mm")
     if column is not None and (len(column) != 3 or any(float(v) <= 0 for v in column)):
         raise ConfigError(f"{path}: bench.collapse_size_mm = {column}: allowed three lengths above 0 mm (the collapse "
@@ -274,7 +274,7 @@ def filter_seeds(cfg: dict) -> list[int]:
     ([1], [1, 2, 3])
     """
     seeds = cfg["calibration_seed"]
-    return [int(s) for s in (seeds if isinstance(seeds, list) else [seeds])]
+    return list(seeds) if isinstance(seeds, list) else [seeds]
 
 
 def in_turn(seeds: list[int], rows: list) -> list[tuple[int, dict]]:
