@@ -214,15 +214,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("budget", help="the error budget of a compared preset: each miss against the field split into "
                        "grain size, model, measurement, machine, packing and soil (results/validation/)")
-    p.add_argument("--preset", default="bench_validation_medium", help="a preset of results/comparison.csv (default "
-                   "bench_validation_medium, the main job's)")
+    p.add_argument("--preset", default="bench_validation", help="a preset of results/comparison.csv (default "
+                   "bench_validation, the validation: the main job's strips over three packings)")
     p.add_argument("--machine-dir", type=folder("--machine-dir"), default=None,
                    help="the machine calibration whose intervals and design slopes are propagated: its machine_fit.csv "
                    "and machine.csv (default: the folder of the fit configs/machine.toml holds for the preset's "
                    "machine, its `fit`)")
     p.add_argument("--out", type=folder("--out"), default=None,
                    help="where error_budget.csv and .png and the soil part's table go (default results/validation for "
-                   "the validation preset, results/validation/<preset>/ for any other)")
+                   "bench_validation, results/validation/<preset>/ for any other)")
     p.set_defaults(func=cmd_budget)
     p = sub.add_parser("study", help="a batch of disk scenes over a grid or list of parameters (configs/studies/)")
     p.add_argument("file", nargs="+", help="study file(s), e.g. configs/studies/slip.toml; several run as one batch")
@@ -247,8 +247,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--against", default="validation_surface",
                    help="presets: the reference preset (default validation_surface); every preset in "
                    "results/comparison.csv with its calibrated machine is set against it")
-    p.add_argument("--strip", action="store_true", help="grain-size: from clay's validation strip at r = 6, 5 and 4 mm "
-                   "(results/comparison.csv) instead of bench convergence's one hole")
+    p.add_argument("--strip", nargs="?", const="bench_validation", choices=("bench_validation", "validation"),
+                   help="grain-size: from clay's strip of a validation (default bench_validation; validation: the "
+                   "cone-fitted soils') at r = 6, 5 and 4 mm (results/comparison.csv) instead of bench convergence's "
+                   "one hole; written to that validation's budget folder")
     p.add_argument("--run", help="collider, profile: a run folder with a checkpoint")
     p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000,
                    help="collider, profile: steps per setting (default 3000)")

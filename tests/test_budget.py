@@ -77,7 +77,7 @@ def test_the_validation_strips_at_three_grain_sizes_give_each_metrics_limit():
     field = {"L0": 91.8, "L1": 49.9, "L2": 62.1, "L2_surface": 62.1, "h1": 13.5}
     limit = {"L0": 95.0, "L1": 48.0, "L2": 50.0, "L2_surface": 60.0, "h1": 8.0}
     slope = {"L0": -2.0, "L1": 1.5, "L2": -1.0, "L2_surface": 0.2, "h1": 1.5}
-    radius = dict(zip(STRIP_PRESETS, (6.0, 5.0, 4.0)))
+    radius = dict(zip(STRIP_PRESETS["bench_validation"], (6.0, 5.0, 4.0)))
     rows = [{"preset": p, "soil": s, "metric": m, "sim_mean": limit[m] + slope[m] * r, "sim_sd": 0.2, "n_holes": 16,
              "n_runs": 2, "field_mean": field[m]} for p, r in radius.items() for m in STRIP_METRICS
             for s in ("clay", "sand")]
@@ -172,7 +172,7 @@ def test_a_budget_written_elsewhere_names_its_folder_and_leaves_the_validations_
 
 
 def test_without_out_a_budget_goes_to_its_presets_default_folder_and_its_stamp_names_no_out(tmp_path, monkeypatch):
-    """Without --out the budget lands in `default_out(preset)` (results/validation for the validation preset,
+    """Without --out the budget lands in `default_out(preset)` (results/validation for bench_validation,
     results/validation/<preset>/ for any other: its doctest), and its stamp is the plain command."""
     from analysis import cli
     from analysis.holes import budget_report

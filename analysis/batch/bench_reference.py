@@ -19,7 +19,7 @@ from analysis.batch.bench import (CONVERGENCE, pyplot, run_cost, save, study_tab
 from analysis.core.config import load_preset, load_resolution
 from analysis.core.schema import ROOT
 from analysis.holes.compare import kept_holes
-from analysis.core.io import atomic_csv, machine, read_table, stamp
+from analysis.core.io import atomic_csv, machine, read_table, shown, stamp
 
 
 # The presets against a reference preset (`./holes bench presets`): the same machine and strip at other grains.
@@ -233,15 +233,16 @@ def run_convergence(workers: int, threads: int, runs_dir=None, bed_dir=None, out
 # beside as limit_fitted_*), and each grain size judged against that limit: within 5 % of the field mean over the
 # limit's whole interval. The openings are left out: the
 # convergence runs kept no grains, so theirs are the former reading's (results/comparison/README.md).
-# `bench grain-size --strip` does the same for the validation strip itself: clay's holes of the validation presets
-# (STRIP_PRESETS: one strip, machine and step at r = 6, 5 and 4 mm) from results/comparison.csv, every metric the
-# comparison measures (the openings with the caliper), each mean's standard error over its holes.
+# `bench grain-size --strip [VALIDATION]` does the same for a validation's strip itself: clay's holes of its presets
+# (STRIP_PRESETS[VALIDATION]: one strip, soils, machine and step at r = 6, 5 and 4 mm) from results/comparison.csv,
+# every metric the comparison measures (the openings with the caliper), each mean's standard error over its holes.
 GRAIN_SIZE_METRICS = ("L2", "L2_surface", "h1")
-STRIP_PRESETS = ("validation_medium", "validation_surface", "validation_r4")
+STRIP_PRESETS = {"bench_validation": ("bench_validation_medium", "bench_validation_r5", "bench_validation_r4"),
+                 "validation": ("validation_medium", "validation_surface", "validation_r4")}
 STRIP_METRICS = ("L0", "L1", "L2", "L2_surface", "h1")
 
 
-def strip_means(comparison: pd.DataFrame, presets=STRIP_PRESETS, soil: str = "clay") -> pd.DataFrame:
+def strip_means(comparison: pd.DataFrame, presets=STRIP_PRESETS["bench_validation"], soil: str = "clay") -> pd.DataFrame:
     """The validation strips' means in `bench convergence`'s columns (metric, radius_mm, mean, sd, n: holes)."""
     from analysis.core.config import load_preset, load_resolution
     rows = []
@@ -276,29 +277,33 @@ def grain_size(conv: pd.DataFrame, metrics=GRAIN_SIZE_METRICS, n: str = "packing
     return pd.DataFrame(rows)
 
 
-def run_grain_size(out=None, strip: bool = False) -> int:
-    """results/validation/grain_size.csv and .png from results/bench/convergence.csv, or (`strip`)
-    grain_size_strip.csv and .png from the validation strips in results/comparison.csv (no scene runs)."""
-    out = Path(out or ROOT / "results/validation")
+def run_grain_size(out=None, strip: str | None = None) -> int:
+    """results/validation/grain_size.csv and .png from results/bench/convergence.csv, or (`strip`: a validation of
+    STRIP_PRESETS) grain_size_strip.csv and .png from its strips in results/comparison.csv, in that validation's
+    budget folder (no scene runs)."""
+    from analysis.holes.budget_report import OUT, default_out
+    out = Path(out or (default_out(strip) if strip else OUT))
     source = ROOT / ("results/comparison.csv" if strip else "results/bench/convergence.csv")
     if not source.exists():
         print(f"bench grain-size: no {source.relative_to(ROOT)}; `./holes "
               f"{'compare --preset P' if strip else 'bench convergence'}` makes it", file=sys.stderr)
         return 1
     if strip:
-        means = strip_means(read_table(source))
+        presets = STRIP_PRESETS[strip]
+        means = strip_means(read_table(source), presets)
         radii = sorted(set(means.radius_mm)) if len(means) else []
         if len(radii) < 2:
-            print(f"bench grain-size --strip: clay's validation strip at {len(radii)} grain size(s) in "
-                  f"results/comparison.csv; it needs two or more of {', '.join(STRIP_PRESETS)} "
-                  "(`./holes compare --preset P --soils clay --seeds 1,2`)", file=sys.stderr)
+            print(f"bench grain-size --strip {strip}: clay's strip at {len(radii)} grain size(s) in "
+                  f"results/comparison.csv; it needs two or more of {', '.join(presets)} "
+                  "(`./holes compare --preset P --soils clay --seeds 1`)", file=sys.stderr)
             return 1
-        metrics, n, name, what = STRIP_METRICS, "n", "grain_size_strip", "clay's validation strip"
+        metrics, n, name, what = STRIP_METRICS, "n", "grain_size_strip", f"clay's {strip} strip"
         t = grain_size(means, metrics, n)
     else:
         metrics, n, name, what = GRAIN_SIZE_METRICS, "packings", "grain_size", "the clay hole of bench convergence"
         t = grain_size(read_table(source))
-    note = stamp("./holes bench grain-size" + (" --strip" if strip else ""))
+    note = stamp("./holes bench grain-size" + (f" --strip {strip}" if strip else "")
+                 + ("" if out == (default_out(strip) if strip else OUT) else f" --out {shown(out)}"))
     atomic_csv(t.round(3), out / f"{name}.csv", note + f"; mm; {what} extrapolated to r -> 0 (analysis/holes/budget.py)"
                + ("; n: holes" if strip else ""))
     fig, axes = pyplot().subplots(1, len(metrics), figsize=(3.4 * len(metrics), 3.8))

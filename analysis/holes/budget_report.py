@@ -33,14 +33,14 @@ from analysis.holes.compare import kept_holes, packing_holes, shift_from_holes, 
 
 METRICS = ("L0", "L1", "L2", "L2_surface", "h1")
 OUT = ROOT / "results/validation"
-OWN = "validation"          # the preset whose budget OUT itself holds (the README's validation section reads it)
+OWN = "bench_validation"    # the preset whose budget OUT itself holds (the README's validation section reads it)
 
 
 def default_out(preset: str) -> Path:
     """Where a preset's budget goes unless --out says: OUT for OWN, OUT/<preset>/ for any other, so that no budget
     overwrites the one the README reads.
 
-    >>> default_out("validation") == OUT, default_out("bench_validation") == OUT / "bench_validation"
+    >>> default_out("bench_validation") == OUT, default_out("validation") == OUT / "validation"
     (True, True)
     """
     return OUT if preset == OWN else OUT / preset
@@ -181,7 +181,7 @@ def table(comparison: pd.DataFrame, holes: pd.DataFrame, grain: pd.DataFrame, ra
     return pd.DataFrame(rows)
 
 
-def run(preset: str = "bench_validation_medium", out: Path | None = None,
+def run(preset: str = OWN, out: Path | None = None,
         comparison_path: Path = ROOT / "results/comparison.csv", machine_dir: Path | None = None) -> list[Path]:
     """error_budget.csv and error_budget.png in `out` (default `default_out(preset)`) for `preset`'s rows of the
     comparison, the machine's part from the calibration in `machine_dir` (default: the folder of the fit
