@@ -180,3 +180,24 @@ def test_without_out_a_budget_goes_to_its_presets_default_folder_and_its_stamp_n
     assert cli.main(["budget", "--preset", "validation"]) == 0
     first = (tmp_path / "validation" / "error_budget.csv").read_text().splitlines()[0]
     assert "`./holes budget --preset validation` at" in first and "--out" not in first
+
+
+def test_the_strip_grain_size_reads_the_named_validations_presets(tmp_path):
+    """`bench grain-size --strip validation` reads the cone-fitted strip's three grain sizes from the committed
+    comparison, never the bench validation's, and its table's stamp names the validation and the folder."""
+    from analysis.batch.bench_reference import STRIP_PRESETS, run_grain_size
+    assert run_grain_size(tmp_path, strip="validation") == 0
+    text = (tmp_path / "grain_size_strip.csv").read_text()
+    assert "--strip validation" in text.splitlines()[0] and f"--out {tmp_path}" in text.splitlines()[0]
+    import pandas as pd
+    from io import StringIO
+    t = pd.read_csv(StringIO(text), comment="#")
+    assert set(t.radius_mm) == {4.0, 5.0, 6.0}
+    assert not set(STRIP_PRESETS["validation"]) & set(STRIP_PRESETS["bench_validation"])
+
+
+def test_an_unknown_strip_validation_is_refused_before_anything_runs(capsys):
+    from analysis import cli
+    with pytest.raises(SystemExit) as e:
+        cli.main(["bench", "grain-size", "--strip", "paper"])
+    assert e.value.code == 2 and "--strip" in capsys.readouterr().err
