@@ -201,3 +201,12 @@ def test_an_unknown_strip_validation_is_refused_before_anything_runs(capsys):
     with pytest.raises(SystemExit) as e:
         cli.main(["bench", "grain-size", "--strip", "paper"])
     assert e.value.code == 2 and "--strip" in capsys.readouterr().err
+
+
+def test_the_command_lines_strip_choices_are_the_validations_with_strips():
+    """The parser names `--strip`'s choices itself (it loads no pandas at start-up); they are STRIP_PRESETS' keys."""
+    from analysis import cli
+    from analysis.batch.bench_reference import STRIP_PRESETS
+    bench = next(a for a in cli.build_parser()._subparsers._group_actions[0].choices["bench"]._actions
+                 if a.dest == "strip")
+    assert set(bench.choices) == set(STRIP_PRESETS) and bench.const in STRIP_PRESETS

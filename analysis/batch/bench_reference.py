@@ -18,6 +18,7 @@ from analysis.batch.bench import (CONVERGENCE, pyplot, run_cost, save, study_tab
                                   with_numerics)
 from analysis.core.config import load_preset, load_resolution
 from analysis.core.schema import ROOT
+from analysis.holes.budget_report import OUT, default_out
 from analysis.holes.compare import kept_holes
 from analysis.core.io import atomic_csv, machine, read_table, shown, stamp
 
@@ -281,8 +282,8 @@ def run_grain_size(out=None, strip: str | None = None) -> int:
     """results/validation/grain_size.csv and .png from results/bench/convergence.csv, or (`strip`: a validation of
     STRIP_PRESETS) grain_size_strip.csv and .png from its strips in results/comparison.csv, in that validation's
     budget folder (no scene runs)."""
-    from analysis.holes.budget_report import OUT, default_out
-    out = Path(out or (default_out(strip) if strip else OUT))
+    home = default_out(strip) if strip else OUT
+    out = Path(out or home)
     source = ROOT / ("results/comparison.csv" if strip else "results/bench/convergence.csv")
     if not source.exists():
         print(f"bench grain-size: no {source.relative_to(ROOT)}; `./holes "
@@ -303,7 +304,7 @@ def run_grain_size(out=None, strip: str | None = None) -> int:
         metrics, n, name, what = GRAIN_SIZE_METRICS, "packings", "grain_size", "the clay hole of bench convergence"
         t = grain_size(read_table(source))
     note = stamp("./holes bench grain-size" + (f" --strip {strip}" if strip else "")
-                 + ("" if out == (default_out(strip) if strip else OUT) else f" --out {shown(out)}"))
+                 + ("" if out == home else f" --out {shown(out)}"))
     atomic_csv(t.round(3), out / f"{name}.csv", note + f"; mm; {what} extrapolated to r -> 0 (analysis/holes/budget.py)"
                + ("; n: holes" if strip else ""))
     fig, axes = pyplot().subplots(1, len(metrics), figsize=(3.4 * len(metrics), 3.8))
