@@ -11,7 +11,7 @@ from analysis.commands import (cmd_bench, cmd_budget, cmd_calibrate, cmd_calibra
                                cmd_params, cmd_pepper, cmd_pepper_frame, cmd_refill, cmd_report, cmd_rings, cmd_study, cmd_theory,
                                run_scene)
 from analysis.core.cli_types import CommandLine, folder, option
-from analysis.core.config import COLLIDER_STEPS, CONE_FIELDS, SEED, THREADS, WORKERS
+from analysis.core.config import COLLIDER_STEPS, CONE_FIELDS, SEED, THREADS, WORKERS, grain_size_strips
 from analysis.core.schema import ConfigError, Field
 
 
@@ -247,10 +247,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--against", default="validation_surface",
                    help="presets: the reference preset (default validation_surface); every preset in "
                    "results/comparison.csv with its calibrated machine is set against it")
-    p.add_argument("--strip", nargs="?", const="bench_validation", choices=("bench_validation", "validation"),
+    p.add_argument("--strip", nargs="?", const="bench_validation", choices=tuple(grain_size_strips()),
                    help="grain-size: from clay's strip of a validation (default bench_validation; validation: the "
-                   "cone-fitted soils') at r = 6, 5 and 4 mm (results/comparison.csv) instead of bench convergence's "
-                   "one hole; written to that validation's budget folder")
+                   "cone-fitted soils') and its `grain_size` presets (configs/presets.toml: r = 6, 5 and 4 mm) in "
+                   "results/comparison.csv instead of bench convergence's one hole; written to that validation's "
+                   "budget folder")
     p.add_argument("--run", help="collider, profile: a run folder with a checkpoint")
     p.add_argument("--steps", type=option("--steps", COLLIDER_STEPS), default=3000,
                    help="collider, profile: steps per setting (default 3000)")

@@ -96,7 +96,10 @@ def render() -> str:
            "## `presets.toml`: run presets (`--preset NAME`)", "",
            *table({**PRESET_FIELDS, **PRESET_OPTIONAL}, {n: v for n, v in presets.items() if "replicates" not in v}), "",
            *[f"`{n}` replicates `{v['replicates']}` over packings {', '.join(map(str, v['seeds']))}: that preset's runs "
-             "(the same ids), its own table in `results/comparison.csv`." for n, v in presets.items() if "replicates" in v],
+             "(the same ids), its own table in `results/comparison.csv`"
+             + (f"; its grain-size strips (`./holes bench grain-size --strip {n}`): "
+                + ", ".join(f"`{g}`" for g in v["grain_size"]) if "grain_size" in v else "") + "."
+             for n, v in presets.items() if "replicates" in v],
            "",
            "The main job's candidates (`studies/preset_candidates.toml`, judged in results/bench/README.md) are "
            "presets too: " + ", ".join(f"`{n}`" for n in read_toml(ROOT / "configs/studies/preset_candidates.toml"))

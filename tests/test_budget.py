@@ -204,7 +204,8 @@ def test_an_unknown_strip_validation_is_refused_before_anything_runs(capsys):
 
 
 def test_the_command_lines_strip_choices_are_the_validations_with_strips():
-    """The parser names `--strip`'s choices itself (it loads no pandas at start-up); they are STRIP_PRESETS' keys."""
+    """`--strip`'s choices are the validations that name `grain_size` strips in configs/presets.toml, the keys
+    bench grain-size reads."""
     from analysis import cli
     from analysis.batch.bench_reference import STRIP_PRESETS
     bench = next(a for a in cli.build_parser()._subparsers._group_actions[0].choices["bench"]._actions

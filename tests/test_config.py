@@ -269,6 +269,16 @@ def test_a_resolution_by_its_grain_radius_is_the_same_resolution_and_the_same_ru
         load_resolution("r7")
 
 
+def test_each_validations_grain_size_strips_start_with_its_own_strip():
+    """configs/presets.toml's `grain_size` beside `replicates`: the validation's strip, then the same at finer grains."""
+    from analysis.core.config import grain_size_strips, load_preset, load_resolution
+    strips = grain_size_strips()
+    assert strips["bench_validation"][0] == "bench_validation_medium" and strips["validation"][0] == "validation_medium"
+    for presets in strips.values():
+        radii = [load_resolution(load_preset(p).resolution).radius for p in presets]
+        assert radii == sorted(radii, reverse=True) and len(set(radii)) == len(radii) >= 3
+
+
 def test_the_validation_replicates_the_main_jobs_runs_over_three_packings():
     """The validation preset is the main job's strip over packings 1-3: the same run ids, so packing 1 is the main
     job's run itself and never runs twice."""
@@ -284,7 +294,11 @@ def test_the_validation_replicates_the_main_jobs_runs_over_three_packings():
                                          ('replicates = "quick"\nseeds = [1, 1]', "seeds"),
                                          ('replicates = "quick"\nseeds = [0, 2]', "seeds"),
                                          ('replicates = "nothing"\nseeds = [1, 2]', "replicates"),
-                                         ('replicates = "quick"\nseeds = [1, 2]\nholes = 3', "holes")])
+                                         ('replicates = "quick"\nseeds = [1, 2]\nholes = 3', "holes"),
+                                         ('replicates = "quick"\nseeds = [1, 2]\ngrain_size = ["nowhere"]', "grain_size"),
+                                         ('replicates = "quick"\nseeds = [1, 2]\ngrain_size = ["quick"]', "grain_size"),
+                                         ('replicates = "quick"\nseeds = [1, 2]\ngrain_size = ["validation"]',
+                                          "grain_size")])
 def test_a_bad_replicating_preset_is_refused_naming_its_field(tmp_path, body, field):
     from analysis.core.config import load_preset
     path = tmp_path / "presets.toml"

@@ -16,7 +16,7 @@ import pandas as pd
 
 from analysis.batch.bench import (CONVERGENCE, pyplot, run_cost, save, study_table,
                                   with_numerics)
-from analysis.core.config import load_preset, load_resolution
+from analysis.core.config import grain_size_strips, load_preset, load_resolution
 from analysis.core.schema import ROOT
 from analysis.holes.budget_report import OUT, default_out
 from analysis.holes.compare import kept_holes
@@ -235,17 +235,16 @@ def run_convergence(workers: int, threads: int, runs_dir=None, bed_dir=None, out
 # limit's whole interval. The openings are left out: the
 # convergence runs kept no grains, so theirs are the former reading's (results/comparison/README.md).
 # `bench grain-size --strip [VALIDATION]` does the same for a validation's strip itself: clay's holes of its presets
-# (STRIP_PRESETS[VALIDATION]: one strip, soils, machine and step at r = 6, 5 and 4 mm) from results/comparison.csv,
-# every metric the comparison measures (the openings with the caliper), each mean's standard error over its holes.
+# (STRIP_PRESETS[VALIDATION]: its replicated preset and its `grain_size` presets, configs/presets.toml: one strip,
+# soils, machine and step at r = 6, 5 and 4 mm) from results/comparison.csv, every metric the comparison measures (the
+# openings with the caliper), each mean's standard error over its holes.
 GRAIN_SIZE_METRICS = ("L2", "L2_surface", "h1")
-STRIP_PRESETS = {"bench_validation": ("bench_validation_medium", "bench_validation_r5", "bench_validation_r4"),
-                 "validation": ("validation_medium", "validation_surface", "validation_r4")}
+STRIP_PRESETS = grain_size_strips()
 STRIP_METRICS = ("L0", "L1", "L2", "L2_surface", "h1")
 
 
 def strip_means(comparison: pd.DataFrame, presets=STRIP_PRESETS["bench_validation"], soil: str = "clay") -> pd.DataFrame:
     """The validation strips' means in `bench convergence`'s columns (metric, radius_mm, mean, sd, n: holes)."""
-    from analysis.core.config import load_preset, load_resolution
     rows = []
     for preset in presets:
         t = comparison[(comparison.preset == preset) & (comparison.soil == soil) & comparison.metric.isin(STRIP_METRICS)]

@@ -257,6 +257,21 @@ def load_preset(name: str, path=None) -> Preset:
     return Preset(name, **v)
 
 
+REPLICATE_KEYS = ("replicates", "seeds", "grain_size")
+
+
+def grain_size_strips(path=PRESETS) -> dict[str, tuple[str, ...]]:
+    """Each validation that names its grain-size strips (`grain_size` beside `replicates`): validation -> (the
+    replicated preset, then the same strip at the finer grains), as `./holes bench grain-size --strip` reads them."""
+    data = read_toml(path)
+    strips = {}
+    for name, table in data.items():
+        if "grain_size" in table:
+            runs, _ = replicated(name, path)
+            strips[name] = (runs, *table["grain_size"])
+    return strips
+
+
 def replicated(name: str, path=None) -> tuple[str, list[int]]:
     """A preset's runs and packing seeds: (`replicates`, `seeds`) for a preset that replicates another over several
     packings (its runs are the other's, shared run for run), else (`name`, [1])."""
@@ -266,13 +281,18 @@ def replicated(name: str, path=None) -> tuple[str, list[int]]:
     if "replicates" not in table:
         return name, [1]
     where = f"{path}: {name}"
-    unknown = sorted(set(table) - {"replicates", "seeds"})
+    unknown = sorted(set(table) - set(REPLICATE_KEYS))
     if unknown:
-        raise ConfigError(f"{where}.{unknown[0]}: not allowed beside replicates (allowed: replicates, seeds)")
+        raise ConfigError(f"{where}.{unknown[0]}: not allowed beside replicates (allowed: {', '.join(REPLICATE_KEYS)})")
     runs = table["replicates"]
     target = data.get(runs) if isinstance(runs, str) else None
     if target is None or "replicates" in target:
         raise ConfigError(f"{where}.replicates = {runs!r}: allowed a preset of the same file that replicates none")
+    strips = table.get("grain_size", [])
+    if (not isinstance(strips, list) or len(set(map(str, strips))) != len(strips) or runs in strips
+            or not all(isinstance(s, str) and s in data and "replicates" not in data[s] for s in strips)):
+        raise ConfigError(f"{where}.grain_size = {strips!r}: allowed a list of distinct presets of the same file, "
+                          f"other than {runs!r}, that replicate none")
     seeds = table.get("seeds")
     if (not isinstance(seeds, list) or len(seeds) < 2 or len(set(seeds)) != len(seeds)
             or not all(isinstance(x, int) and not isinstance(x, bool) and 1 <= x <= 1000 for x in seeds)):
