@@ -159,6 +159,19 @@ def test_the_bench_soils_part_is_their_posterior_strips_weighted_spread(tmp_path
     assert budget_report.posterior_soil_parts(tmp_path, "# made up", tmp_path / "none.csv") is None
 
 
+def test_a_soils_part_waits_for_every_strip_of_its_posterior_samples(tmp_path, capsys):
+    """Two of a soil's three posterior strips finished (weights 0.5 + 0.25 of 1): its part is not measured, and
+    says so, rather than a spread over a subset the study's definition does not name; the finished soil's is."""
+    import pandas as pd
+    from analysis.holes import budget_report
+    study = tmp_path / "soil_posterior.csv"
+    pd.DataFrame({"soil": ["clay"] * 3 + ["loam"] * 2, "posterior_weight": [0.5, 0.25, 0.25, 0.5, 0.25], "found": 8,
+                  **{m: [50.0, 52.0, 48.0, 50.0, 40.0] for m in budget_report.METRICS}}).to_csv(study, index=False)
+    parts = budget_report.posterior_soil_parts(tmp_path, "# made up", study)
+    assert set(parts.soil) == {"clay"} and (parts.samples == 3).all()
+    assert "loam's soil part not measured" in capsys.readouterr().err
+
+
 def test_a_budget_written_elsewhere_names_its_folder_and_leaves_the_validations_alone(tmp_path):
     """`budget --out F`: the table, its picture and the soil part's table go to F, whose stamp names --out F; the
     validation's own budget is not touched."""
