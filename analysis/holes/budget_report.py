@@ -132,6 +132,17 @@ def soil_slopes(study: pd.DataFrame, holes: pd.DataFrame, bonds: pd.DataFrame, m
     return pd.DataFrame(rows)
 
 
+def unfinished_posteriors(study: pd.DataFrame) -> dict[str, float]:
+    """The soils of a `[posterior]` study's table with a sample's strip still to run, each with the share of its
+    samples' weight that has (the weights are renormalised over the samples taken, so a finished soil's sum to 1).
+
+    >>> unfinished_posteriors(pd.DataFrame({"soil": ["clay", "clay", "loam"], "posterior_weight": [0.6, 0.4, 0.7]}))
+    {'loam': 0.7}
+    """
+    held = study.groupby("soil", sort=False).posterior_weight.sum()
+    return {soil: float(w) for soil, w in held.items() if not math.isclose(w, 1.0, abs_tol=1e-6)}
+
+
 def posterior_parts(study: pd.DataFrame, metrics=METRICS) -> pd.DataFrame:
     """Per soil and metric: the strips of the soil's posterior samples (a `[posterior]` study's table, its
     `posterior_weight`), their weighted mean and SD (reliability weights, unbiased) and the soil part, 1.96 × that
@@ -144,9 +155,9 @@ def posterior_parts(study: pd.DataFrame, metrics=METRICS) -> pd.DataFrame:
     >>> float(r["mean"]), round(float(r["sd"]), 3), round(float(r["soil_part"]), 3)   # 2/(1 - 0.375): Σw² = 0.375
     (60.0, 1.789, 3.506)
     """
-    rows = []
+    rows, unfinished = [], unfinished_posteriors(study)
     for soil, g in study.groupby("soil", sort=False):
-        if not math.isclose(g.posterior_weight.sum(), 1.0, abs_tol=1e-6):   # a sample's strip still to run
+        if soil in unfinished:
             continue
         for m in metrics:
             ok = g[np.isfinite(g[m].to_numpy(float)) & (g.posterior_weight > 0)]
@@ -235,11 +246,10 @@ def posterior_soil_parts(out: Path, note: str, study: Path = ROOT / "results/stu
     if not study.exists():
         return None
     strips = read_table(study)
-    for soil, held in strips.groupby("soil", sort=False).posterior_weight.sum().items():
-        if not math.isclose(held, 1.0, abs_tol=1e-6):
-            print(f"budget: {soil}'s soil part not measured: the strips finished hold {held:.2f} of its posterior "
-                  f"samples' weight ({shown(study)}); "
-                  "./holes study configs/studies/soil_posterior.toml runs the rest", file=sys.stderr)
+    for soil, held in unfinished_posteriors(strips).items():
+        print(f"budget: {soil}'s soil part not measured: the strips finished hold {held:.2f} of its posterior "
+              f"samples' weight ({shown(study)}); ./holes study configs/studies/soil_posterior.toml runs the rest",
+              file=sys.stderr)
     parts = posterior_parts(strips)
     if len(parts):
         atomic_csv(parts.round(4), out / "soil_posterior.csv", note + "; per soil, the strips of its heaviest bench "
