@@ -145,11 +145,13 @@ def test_the_bench_soils_part_is_their_posterior_strips_weighted_spread(tmp_path
     from analysis.holes import budget_report
     study = tmp_path / "soil_posterior.csv"
     pd.DataFrame({"soil": "clay", "posterior_weight": [0.5, 0.25, 0.25], "found": 8,
-                  **{m: [50.0, 50.0, 50.0] for m in budget_report.METRICS}}).assign(h1=[10.0, 12.0, 8.0]).to_csv(
+                  **{m: [50.0, 50.0, 50.0] for m in budget_report.METRICS}}).assign(h1=[10.0, 12.0, 8.0], h1_sd=2.0).to_csv(
         study, index=False)
     parts = budget_report.posterior_soil_parts(tmp_path, "# made up", study)
     h1 = parts.set_index("metric").loc["h1"]
     assert h1.soil_part == pytest.approx(1.96 * np.sqrt(2 / 0.625)) and parts.set_index("metric").loc["L0"].soil_part == 0
+    assert h1.strip_noise == pytest.approx(1.96 * 2 / np.sqrt(8))      # the strips' own hole scatter alone
+    assert np.isnan(parts.set_index("metric").loc["L0"].strip_noise)   # no L0_sd in the table
     assert (tmp_path / "soil_posterior.csv").exists()
     comparison = pd.DataFrame([{"soil": "clay", "metric": "h1", "field_mean": 13.5, "sim_mean": 10.0, "band": 5.0,
                                 "calibration_target": False, "n_holes": 8, "n_runs": 1}])

@@ -147,13 +147,18 @@ def posterior_parts(study: pd.DataFrame, metrics=METRICS) -> pd.DataFrame:
     """Per soil and metric: the strips of the soil's posterior samples (a `[posterior]` study's table, its
     `posterior_weight`), their weighted mean and SD (reliability weights, unbiased) and the soil part, 1.96 × that
     SD. Each strip's own scatter (its holes, the packing's chaos) is in the spread too, so the part bounds the
-    soil parameters' share from above. A soil is left out until every strip of its samples has finished (their
-    weights, renormalised over the samples taken, sum to 1), and a metric measured on fewer than two strips.
+    soil parameters' share from above; `strip_noise` is what that scatter alone would give, 1.96 × √(Σ w·sd²/found)
+    from each strip's hole SD (`<metric>_sd`) and measured holes (`found`), NaN where the table lacks them. A soil is
+    left out until every strip of its samples has finished (their weights, renormalised over the samples taken,
+    sum to 1), and a metric measured on fewer than two strips.
 
-    >>> t = pd.DataFrame({"soil": ["clay"] * 3, "posterior_weight": [0.5, 0.25, 0.25], "L2": [60.0, 62.0, 58.0]})
+    >>> t = pd.DataFrame({"soil": ["clay"] * 3, "posterior_weight": [0.5, 0.25, 0.25], "L2": [60.0, 62.0, 58.0],
+    ...                   "L2_sd": [4.0, 4.0, 4.0], "found": [4, 4, 4]})
     >>> r = posterior_parts(t, ["L2"]).iloc[0]
     >>> float(r["mean"]), round(float(r["sd"]), 3), round(float(r["soil_part"]), 3)   # 2/(1 - 0.375): Σw² = 0.375
     (60.0, 1.789, 3.506)
+    >>> round(float(r["strip_noise"]), 2)                  # 1.96 × 4/√4
+    3.92
     """
     rows, unfinished = [], unfinished_posteriors(study)
     for soil, g in study.groupby("soil", sort=False):
@@ -167,8 +172,11 @@ def posterior_parts(study: pd.DataFrame, metrics=METRICS) -> pd.DataFrame:
             x = ok[m].to_numpy(float)
             mean = float(w @ x)
             sd = math.sqrt(float(w @ (x - mean) ** 2) / (1 - float(w @ w)))
+            noise = math.nan
+            if f"{m}_sd" in ok and "found" in ok:
+                noise = 1.96 * math.sqrt(float(w @ (ok[f"{m}_sd"].to_numpy(float) ** 2 / ok.found.to_numpy(float))))
             rows.append({"soil": soil, "metric": m, "samples": len(ok), "mean": mean, "sd": sd,
-                         "min": float(x.min()), "max": float(x.max()), "soil_part": 1.96 * sd})
+                         "min": float(x.min()), "max": float(x.max()), "soil_part": 1.96 * sd, "strip_noise": noise})
     return pd.DataFrame(rows)
 
 
@@ -253,7 +261,8 @@ def posterior_soil_parts(out: Path, note: str, study: Path = ROOT / "results/stu
     parts = posterior_parts(strips)
     if len(parts):
         atomic_csv(parts.round(4), out / "soil_posterior.csv", note + "; per soil, the strips of its heaviest bench "
-                   "posterior samples (results/studies/soil_posterior.csv): weighted mean and SD, soil_part = 1.96 SD; mm")
+                   "posterior samples (results/studies/soil_posterior.csv): weighted mean and SD, soil_part = 1.96 SD; "
+                   "strip_noise: 1.96 × what the strips' own hole scatter alone gives; mm")
     return parts
 
 
