@@ -175,6 +175,25 @@ def test_a_one_hole_study_plots_without_an_all_nan_metric(tmp_path):
         plot(table, {"name": "one-hole"}, tmp_path / "one.png", "test")
     assert (tmp_path / "one.png").stat().st_size > 10_000
 
+
+def test_a_posterior_study_is_drawn_per_soil_not_against_its_many_varied_parameters(tmp_path, monkeypatch):
+    """A `[posterior]` study varies every contact parameter at once: its picture is per soil (a point per sample's
+    strip, a bar at the weighted mean), never a line per combination of the other parameters (plot_axes)."""
+    import warnings
+    import pandas as pd
+    from analysis.batch import study as study_mod
+    monkeypatch.setattr(study_mod, "plot_axes", lambda t: pytest.fail("a posterior study went through plot_axes"))
+    table = pd.DataFrame({"run": list("abcd"), "soil": ["clay", "clay", "sand", "sand"],
+                          "soil.friction_deg": [9.2, 7.7, 17.0, 15.0], "soil.damping": [0.1, 0.14, 0.12, 0.09],
+                          "posterior_weight": [0.7, 0.3, 0.6, 0.4], "found": 8, "pass_rate": [0.5, 1.0, 0.25, 0.5],
+                          **{m: [60.0, 66.0, 55.0, 57.0] for m in ("L0", "L1", "L2", "L2_surface", "h1", "C")},
+                          **{f"{m}_sd": 3.0 for m in ("L0", "L1", "L2", "L2_surface", "h1", "C")}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        study_mod.plot(table, {"name": "posterior"}, tmp_path / "p.png", "test")
+    assert (tmp_path / "p.png").stat().st_size > 10_000
+
+
 def test_a_committed_table_keeps_its_cases_on_a_new_machine(tmp_path, monkeypatch, capsys):
     """runs/ is not committed: on a new clone a study reruns only the cases missing from its table, and the
     table it rewrites keeps the rows it already had (same run id = same parameters, soil constants included)."""

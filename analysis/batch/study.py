@@ -352,7 +352,10 @@ def plot_axes(table: pd.DataFrame) -> tuple[str, str | None, pd.DataFrame]:
 
 
 def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
-    """Each hole metric and the pass rate against the study's first varied field (a line per other value)."""
+    """Each hole metric and the pass rate against the study's first varied field (a line per other value); a
+    `[posterior]` study's per soil (`plot_posterior`)."""
+    if "posterior_weight" in table:
+        return plot_posterior(table, head, path, note)
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -387,6 +390,38 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     plt.close(fig)
     if theory and any(c.startswith("l_") for c in table.columns):
         plot_length_at_depth(table, path.with_name(path.stem + "_depth.png"), note)
+
+
+def plot_posterior(table: pd.DataFrame, head: dict, path: Path, note: str):
+    """Each hole metric and the pass rate per soil of a `[posterior]` study: every sample's strip (its mean ± its
+    standard error over the holes, the marker's area its posterior weight) and the soil's weighted mean (a bar)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    soils = list(dict.fromkeys(table.soil))
+    fig, axes = plt.subplots(2, 4, figsize=(16, 7))
+    axes.flat[-1].set_visible(False)
+    for ax, m in zip(axes.flat, (*METRICS, "pass_rate")):
+        for i, soil in enumerate(soils):
+            g = table[(table.soil == soil) & np.isfinite(table[m].to_numpy(float))]
+            if g.empty:
+                continue
+            w = g.posterior_weight.to_numpy(float)
+            xs = i + (np.linspace(-0.25, 0.25, len(g)) if len(g) > 1 else np.zeros(1))
+            se = (g[f"{m}_sd"] / np.sqrt(g.found)).fillna(0.0) if f"{m}_sd" in g else None
+            ax.errorbar(xs, g[m], yerr=se, fmt="none", ecolor="0.5", capsize=3)
+            ax.scatter(xs, g[m], s=20 + 300 * w, color=f"C{i}", zorder=3)
+            ax.hlines(float(w @ g[m].to_numpy(float)) / w.sum(), i - 0.35, i + 0.35, color=f"C{i}", lw=2)
+        ax.set_xticks(range(len(soils)), soils)
+        ax.set_xlim(-0.6, len(soils) - 0.4)
+        ax.set_ylabel(m + (" (stated criteria)" if m == "pass_rate" else ", mm"))
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"study {head['name']}: {head.get('description', '')}; a point per posterior sample's strip (mean "
+                 f"± SE over its holes; area: its weight), a bar per soil's weighted mean\n{note}", fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def plot_length_at_depth(table: pd.DataFrame, path: Path, note: str):
