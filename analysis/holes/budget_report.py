@@ -134,13 +134,16 @@ def soil_slopes(study: pd.DataFrame, holes: pd.DataFrame, bonds: pd.DataFrame, m
 
 def unfinished_posteriors(study: pd.DataFrame) -> dict[str, float]:
     """The soils of a `[posterior]` study's table with a sample's strip still to run, each with the share of its
-    samples' weight that has (the weights are renormalised over the samples taken, so a finished soil's sum to 1).
+    samples' weight that has (the weights are renormalised over the samples taken, so a finished soil's sum to 1, to
+    the 4 decimals the study's table keeps).
 
     >>> unfinished_posteriors(pd.DataFrame({"soil": ["clay", "clay", "loam"], "posterior_weight": [0.6, 0.4, 0.7]}))
     {'loam': 0.7}
+    >>> unfinished_posteriors(pd.DataFrame({"soil": ["clay"] * 4, "posterior_weight": [0.6578, 0.2065, 0.0782, 0.0574]}))
+    {}
     """
     held = study.groupby("soil", sort=False).posterior_weight.sum()
-    return {soil: float(w) for soil, w in held.items() if not math.isclose(w, 1.0, abs_tol=1e-6)}
+    return {soil: float(w) for soil, w in held.items() if not math.isclose(w, 1.0, abs_tol=1e-3)}
 
 
 def posterior_parts(study: pd.DataFrame, metrics=METRICS) -> pd.DataFrame:
