@@ -119,8 +119,9 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
         if damage and first_bonds is None:        # the bed's bonds, made at the first step, before the cone arrives
             first_bonds = bonded_pairs(O, n_particles)
         if O.iter % report < 20:
+            wall = time.time() - wall0
             log(f"cone: {100 * O.iter / n_steps:3.0f} %  base depth {rows[-1][0] * 1000:5.1f} mm  "
-                f"resistance {rows[-1][1] / 1000:6.1f} kPa  wall {time.time() - wall0:.0f} s")
+                f"resistance {rows[-1][1] / 1000:6.1f} kPa  wall {wall:.0f} s  ETA {wall * (n_steps / O.iter - 1):.0f} s")
             vmax = max(b.state.vel.norm() for b in O.bodies if b.dynamic)
             if vmax > 50 * speed:
                 raise RuntimeError(f"cone: a particle moves at {vmax:.2f} m/s, > 50 × the cone speed (unstable)")

@@ -193,7 +193,7 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
         if results[scene] is not None:       # a stopped evaluation resumes after its last finished test
             resumed.append(scene)
             continue
-        with open(folder / f"{scene}.log", "w") as log:
+        with open(folder / f"{scene}.log", "w", buffering=1) as log:     # line-buffered: progress readable as it runs
             code, out = run_process([sys.executable, str(ROOT / f"scripts/{scene}.py"), *common, *extra],
                                     lambda line: log.write(line))
         if code != 0:
@@ -674,7 +674,7 @@ def probes(soil: str, sets: list[dict], cfg: dict, out_dir: Path = BENCH_DIR) ->
 def cone_scene(args: list[str], log_path: Path) -> dict:
     """scripts/cone.py with `args` in its own process, its lines to `log_path`; its summary."""
     log_path.parent.mkdir(parents=True, exist_ok=True)
-    with open(log_path, "w") as log:
+    with open(log_path, "w", buffering=1) as log:                     # line-buffered: progress readable as it runs
         code, out = run_process([sys.executable, str(ROOT / "scripts/cone.py"), *args], lambda line: log.write(line))
     if code != 0:
         raise RuntimeError(f"scripts/cone.py exited {code}:\n{''.join(log_path.read_text().splitlines(True)[-8:])}")
