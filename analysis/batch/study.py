@@ -357,13 +357,10 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
     if "posterior_weight" in table:
         return plot_posterior(table, head, path, note)
     import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     x, group, table = plot_axes(table)
     theory = theory_lines(x, table[x]) if x in table else {}
-    fig, axes = plt.subplots(2, 4, figsize=(16, 7))
-    axes.flat[-1].set_visible(False)
-    for ax, m in zip(axes.flat, (*METRICS, "pass_rate")):
+    fig, panels = metric_figure()
+    for ax, m in panels:
         for (label, line), style in zip(theory.items(), ("k--", "k:")):
             if m in line and np.isfinite(line[m]).any():
                 ax.plot(line["x"], line[m], style, marker=".", label=label)
@@ -379,15 +376,9 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
             ax.tick_params(axis="x", labelrotation=30, labelsize=6)
         elif pd.api.types.is_integer_dtype(table[x]):                # seeds, hole counts: whole ticks
             ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
-        ax.set_ylabel(m + (" (stated criteria)" if m == "pass_rate" else ", mm"))
-        ax.grid(alpha=0.3)
     if group or theory:
-        axes.flat[0].legend(fontsize=7)
-    fig.suptitle(f"study {head['name']}: {head.get('description', '')}\n{note}", fontsize=8)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        panels[0][0].legend(fontsize=7)
+    save_figure(fig, path, f"study {head['name']}: {head.get('description', '')}\n{note}")
     if theory and any(c.startswith("l_") for c in table.columns):
         plot_length_at_depth(table, path.with_name(path.stem + "_depth.png"), note)
 
@@ -395,13 +386,9 @@ def plot(table: pd.DataFrame, head: dict, path: Path, note: str):
 def plot_posterior(table: pd.DataFrame, head: dict, path: Path, note: str):
     """Each hole metric and the pass rate per soil of a `[posterior]` study: every sample's strip (its mean ± its
     standard error over the holes, the marker's area its posterior weight) and the soil's weighted mean (a bar)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     soils = list(dict.fromkeys(table.soil))
-    fig, axes = plt.subplots(2, 4, figsize=(16, 7))
-    axes.flat[-1].set_visible(False)
-    for ax, m in zip(axes.flat, (*METRICS, "pass_rate")):
+    fig, panels = metric_figure()
+    for ax, m in panels:
         for i, soil in enumerate(soils):
             g = table[(table.soil == soil) & np.isfinite(table[m].to_numpy(float))]
             if g.empty:
@@ -414,10 +401,29 @@ def plot_posterior(table: pd.DataFrame, head: dict, path: Path, note: str):
             ax.hlines(float(w @ g[m].to_numpy(float)) / w.sum(), i - 0.35, i + 0.35, color=f"C{i}", lw=2)
         ax.set_xticks(range(len(soils)), soils)
         ax.set_xlim(-0.6, len(soils) - 0.4)
+    save_figure(fig, path, f"study {head['name']}: {head.get('description', '')}; a point per posterior sample's "
+                f"strip (mean ± SE over its holes; area: its weight), a bar per soil's weighted mean\n{note}")
+
+
+def metric_figure():
+    """A study picture's frame: a panel per hole metric and the pass rate (2 × 4, the last hidden), labelled;
+    (figure, [(axes, metric), ...])."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(2, 4, figsize=(16, 7))
+    axes.flat[-1].set_visible(False)
+    panels = list(zip(axes.flat, (*METRICS, "pass_rate")))
+    for ax, m in panels:
         ax.set_ylabel(m + (" (stated criteria)" if m == "pass_rate" else ", mm"))
         ax.grid(alpha=0.3)
-    fig.suptitle(f"study {head['name']}: {head.get('description', '')}; a point per posterior sample's strip (mean "
-                 f"± SE over its holes; area: its weight), a bar per soil's weighted mean\n{note}", fontsize=8)
+    return fig, panels
+
+
+def save_figure(fig, path: Path, title: str):
+    """A study picture titled and written to `path`."""
+    import matplotlib.pyplot as plt
+    fig.suptitle(title, fontsize=8)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
