@@ -13,6 +13,7 @@ import pytest
 
 from analysis.core.schema import ConfigError
 from analysis.soil import bench_calibration as bench
+from analysis.core import runner      # the scenes' process: run_logged runs it (its lines to the log)
 from analysis.soil.bayes import HOLE_METRICS, calibrate, sigma_floor
 
 
@@ -134,7 +135,7 @@ def test_a_finished_evaluation_is_read_back_never_run_again(tmp_path, monkeypatc
     (folder / "responses.json").write_text(json.dumps({"c_kpa": 1.0}))
     heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]       # 45° from x = 100 mm
     (folder / "bed.json").write_text(json.dumps({"profile_mm": heap}))
-    monkeypatch.setattr(bench, "run_process", lambda *a: pytest.fail("a finished evaluation ran again"))
+    monkeypatch.setattr(runner, "run_process", lambda *a: pytest.fail("a finished evaluation ran again"))
     again = bench.evaluate("clay", 2, params, cfg, tmp_path)
     assert again["c_kpa"] == 1.0 and again["collapse_deg"] == pytest.approx(45.0, abs=1.0)
     assert bench.evaluation_id("clay", 2, {**params, "friction_deg": 25.000001}, cfg) == folder.name
@@ -156,7 +157,7 @@ def test_an_evaluation_stopped_between_its_tests_reruns_only_the_one_it_lacks(tm
         heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
         (folder / "column.json").write_text(json.dumps({"profile_mm": heap, "runout_mm": 90.0}))
         return 0, json.dumps({"runout_mm": 90.0})
-    monkeypatch.setattr(bench, "run_process", fake)
+    monkeypatch.setattr(runner, "run_process", fake)
     row = bench.evaluate("clay", 1, params, cfg, tmp_path)
     assert ran == ["collapse"] and row["resumed"] == "shear"
     assert (row["c_kpa"], row["phi_deg"], row["tau_peak_kpa"]) == (22.5, 28.1, [60.0])
@@ -172,12 +173,12 @@ def test_a_test_the_scene_stopped_is_kept_as_failed_and_weighs_nothing(tmp_path,
     def leaking(cmd, sink):
         sink("shear stopped: shear: 12 grains left the box through the frames' gap (the box leaks)\n")
         return bench.UNTESTABLE, ""
-    monkeypatch.setattr(bench, "run_process", leaking)
+    monkeypatch.setattr(runner, "run_process", leaking)
     row = bench.evaluate("clay", 1, params, cfg, tmp_path)
     assert "the box leaks" in row["failed"] and all(math.isnan(row[r]) for r in bench.RESPONSES)
-    monkeypatch.setattr(bench, "run_process", lambda *a: pytest.fail("a failed evaluation ran again"))
+    monkeypatch.setattr(runner, "run_process", lambda *a: pytest.fail("a failed evaluation ran again"))
     assert bench.evaluate("clay", 1, params, cfg, tmp_path)["failed"] == row["failed"]
-    monkeypatch.setattr(bench, "run_process", lambda cmd, sink: (1, ""))
+    monkeypatch.setattr(runner, "run_process", lambda cmd, sink: (1, ""))
     with pytest.raises(RuntimeError, match="exited 1"):
         bench.evaluate("clay", 2, params, cfg, tmp_path)
     truth = {"normal_cohesion": 300e3, "friction_deg": 22.0, "pressed_adhesion": 0.2, "rolling_friction": 0.1}
@@ -644,7 +645,7 @@ def test_the_collapse_column_takes_its_own_size_and_names_the_evaluation_only_wh
             folder = Path(cmd[cmd.index("--out") + 1])
             (folder / "column.json").write_text(json.dumps({"profile_mm": heap}))
         return 0, json.dumps(out)
-    monkeypatch.setattr(bench, "run_process", fake)
+    monkeypatch.setattr(runner, "run_process", fake)
     row = bench.evaluate("clay", 1, params, tall, tmp_path)
     assert sizes == {"shear": "150,150,100", "collapse": "225,225,150"} and row["collapse_deg"] == pytest.approx(45, abs=1)
     text = bench.CONFIG.read_text().replace("collapse_size_mm = [225, 225, 150]", "collapse_size_mm = [225, 0, 150]", 1)

@@ -68,6 +68,18 @@ def run_process(cmd: list[str], on_line) -> tuple[int, str]:
     return proc.returncode, out
 
 
+def run_logged(cmd: list[str], log_path: Path, on_line=None) -> tuple[int, str]:
+    """`run_process` with each line of the scene's stderr written to `log_path` as it comes (line-buffered, so its
+    progress can be read while it runs), then handed to `on_line` if given."""
+    with open(log_path, "w", buffering=1) as log:
+
+        def each(line):
+            log.write(line)
+            if on_line:
+                on_line(line)
+        return run_process(cmd, each)
+
+
 def run_case(args: list[str], case_id: str, tag: str, threads: int, runs_dir, bed_dir, echo: bool = True) -> dict:
     """Run one scene (`scripts/disk.py ARGS`) or reuse it; its log goes to runs/<id>.log and its progress
     lines are echoed with `tag` (every 20 s at most). Returns the run's summary; RuntimeError if it failed."""
@@ -77,15 +89,12 @@ def run_case(args: list[str], case_id: str, tag: str, threads: int, runs_dir, be
     cmd = [sys.executable, str(ROOT / "scripts/disk.py"), *args, "--threads", str(threads), "--out", str(runs_dir),
            "--bed-dir", str(bed_dir)]
     last = [time.time()]
-    with open(log_path, "w") as log:
 
-        def on_line(line):
-            log.write(line)
-            log.flush()
-            if echo and (time.time() - last[0] > 20 or not line.startswith(("run:", "bed:"))):
-                last[0] = time.time()
-                say(f"{tag} {line.rstrip()}")
-        returncode, out = run_process(cmd, on_line)
+    def on_line(line):
+        if echo and (time.time() - last[0] > 20 or not line.startswith(("run:", "bed:"))):
+            last[0] = time.time()
+            say(f"{tag} {line.rstrip()}")
+    returncode, out = run_logged(cmd, log_path, on_line)
     if returncode != 0:
         tail = "".join(log_path.read_text().splitlines(keepends=True)[-15:])
         raise RuntimeError(f"{tag} scripts/disk.py exited {returncode}; log {log_path}:\n{tail}")

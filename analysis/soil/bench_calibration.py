@@ -27,7 +27,7 @@ from scipy import stats
 
 from analysis.core.config import SEED
 from analysis.core.io import atomic_csv, atomic_write, say
-from analysis.core.runner import run_process
+from analysis.core.runner import run_logged
 from analysis.core.schema import ROOT, ConfigError
 from analysis.core.soil_config import BENCH_DIR
 
@@ -193,9 +193,8 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
         if results[scene] is not None:       # a stopped evaluation resumes after its last finished test
             resumed.append(scene)
             continue
-        with open(folder / f"{scene}.log", "w", buffering=1) as log:     # line-buffered: progress readable as it runs
-            code, out = run_process([sys.executable, str(ROOT / f"scripts/{scene}.py"), *common, *extra],
-                                    lambda line: log.write(line))
+        code, out = run_logged([sys.executable, str(ROOT / f"scripts/{scene}.py"), *common, *extra],
+                               folder / f"{scene}.log")
         if code != 0:
             tail = "".join((folder / f"{scene}.log").read_text().splitlines(keepends=True)[-8:])
             if code == UNTESTABLE:      # the scene stopped the test (a leaking box, a grain flying): no response
@@ -674,8 +673,7 @@ def probes(soil: str, sets: list[dict], cfg: dict, out_dir: Path = BENCH_DIR) ->
 def cone_scene(args: list[str], log_path: Path) -> dict:
     """scripts/cone.py with `args` in its own process, its lines to `log_path`; its summary."""
     log_path.parent.mkdir(parents=True, exist_ok=True)
-    with open(log_path, "w", buffering=1) as log:                     # line-buffered: progress readable as it runs
-        code, out = run_process([sys.executable, str(ROOT / "scripts/cone.py"), *args], lambda line: log.write(line))
+    code, out = run_logged([sys.executable, str(ROOT / "scripts/cone.py"), *args], log_path)
     if code != 0:
         raise RuntimeError(f"scripts/cone.py exited {code}:\n{''.join(log_path.read_text().splitlines(True)[-8:])}")
     return json.loads(out.strip().splitlines()[-1])
