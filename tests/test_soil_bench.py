@@ -586,6 +586,48 @@ def test_a_soils_own_bench_settings_replace_the_common_ones_and_bad_ones_are_ref
             bench.load_config(tmp_path / "b.toml", soil="sand")
 
 
+def test_a_soils_own_cone_settings_replace_the_common_ones_and_name_its_cones_apart(tmp_path):
+    """[soil_cone_check.<soil>] replaces [cone_check] keys for that soil only, so its cones are other cones (their
+    cache key holds the settings); an unknown soil or a key [cone_check] lacks is refused naming the field."""
+    cfg = bench.CONFIG.read_text().split("[soil_bounds")[0]      # the common settings, no soil's own
+    own = '\n[soil_cone_check.sand]\nresolution = "medium"\n'
+    (tmp_path / "b.toml").write_text(cfg + own)
+    sand, clay = (bench.load_config(tmp_path / "b.toml", soil=s) for s in ("sand", "clay"))
+    assert sand["cone_check"]["resolution"] == "medium" != clay["cone_check"]["resolution"]
+    assert {k: v for k, v in sand["cone_check"].items() if k != "resolution"} == \
+        {k: v for k, v in clay["cone_check"].items() if k != "resolution"}
+    assert bench.load_config(tmp_path / "b.toml")["cone_check"] == clay["cone_check"]
+    for extra, match in [('\n[soil_cone_check.peat]\nresolution = "medium"\n', "soil_cone_check.peat"),
+                         ("\n[soil_cone_check.sand]\ncolour = 1\n", "soil_cone_check.sand.colour")]:
+        (tmp_path / "b.toml").write_text(cfg + extra)
+        with pytest.raises(ConfigError, match=re.escape(match)):
+            bench.load_config(tmp_path / "b.toml", soil="sand")
+
+
+def test_a_cone_transfer_scales_the_reading_the_filter_takes_and_reuses_the_same_cone(tmp_path, monkeypatch):
+    """[cone_check] transfer: the filter's cone index is the cone's reading times the ratio, from the same cone (one
+    run, its summary reused); the cone transfer measures the readings themselves; a ratio out of 0.5-1.5 is refused."""
+    ran = []
+
+    def fake_cone(args, log_path):                  # 500 kPa at r = 8 mm, 420 at the runs' grains
+        ran.append(args[args.index("--resolution") + 1])
+        return {"cone_index_pa": 5.0e5 if ran[-1] == "coarse" else 4.2e5}
+    monkeypatch.setattr(bench, "cone_scene", fake_cone)
+    cfg = bench.load_config(soil="sand")
+    params = {"normal_cohesion": 1.0e5, "friction_deg": 17.0}
+    plain = bench.cone_check("sand", params, {**cfg, "cone_check": {**cfg["cone_check"], "transfer": 1.0}}, tmp_path)
+    scaled = bench.cone_check("sand", params, {**cfg, "cone_check": {**cfg["cone_check"], "transfer": 0.84}}, tmp_path)
+    assert ran == ["coarse"] and plain["mean"] == pytest.approx(500) and scaled["raw"] == pytest.approx(500)
+    assert scaled["mean"] == pytest.approx(420) and not plain["mean_inside"] and scaled["mean_inside"]
+    (tmp_path / "sand-posterior.json").write_text(json.dumps({"mean": params}))
+    table = bench.cone_transfer("sand", [1], {**cfg, "cone_check": {**cfg["cone_check"], "transfer": 0.84}}, tmp_path, 1)
+    assert table.loc[0, "cone_filter_kpa"] == pytest.approx(500) and table.loc[0, "ratio"] == pytest.approx(0.84)
+    text = bench.CONFIG.read_text().replace("transfer = 0.84", "transfer = 2.0")
+    (tmp_path / "b.toml").write_text(text)
+    with pytest.raises(ConfigError, match=re.escape("cone_check.transfer = 2.0: allowed 0.5-1.5")):
+        bench.load_config(tmp_path / "b.toml", soil="sand")
+
+
 def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has_its_own_cone(tmp_path, monkeypatch):
     """`cone_target`: the filter reads the cone index beside the bench's three responses, each evaluation's cone on
     the cone's bed of the evaluation's own packing; the table of the finished iterations is kept while it runs;
@@ -621,7 +663,7 @@ def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has
     text = bench.CONFIG.read_text()
     for old, new, match in [("cone_target = true", "cone_target = 1", "cone_target"),
                             ("[cone_check]", "[cone_elsewhere]", "cone_target = true without a [cone_check]")]:
-        (tmp_path / "b.toml").write_text(text.replace(old, new))
+        (tmp_path / "b.toml").write_text(text.replace(old, new).replace("[soil_cone_check.", "[soil_cone_elsewhere."))
         with pytest.raises(ConfigError, match=re.escape(match)):
             bench.load_config(tmp_path / "b.toml", soil="clay")
 

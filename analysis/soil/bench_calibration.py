@@ -40,22 +40,28 @@ SCENES_VERSION = 3     # raised whenever scripts/shear.py or scripts/collapse.py
 
 def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
     """The calibration's settings and its parameters' prior ranges, checked; with `soil`, the ranges its
-    `[soil_bounds.<soil>]` table narrows replace the common ones, and its `[soil_bench.<soil>]` settings the common
-    [bench] ones."""
+    `[soil_bounds.<soil>]` table narrows replace the common ones, its `[soil_bench.<soil>]` settings the common
+    [bench] ones and its `[soil_cone_check.<soil>]` ones the common [cone_check] ones."""
     from analysis.core.soil_config import SOIL_FIELDS, SOILS
     cfg = tomllib.loads(Path(path).read_text())
     bench, bounds, fixed = dict(cfg.get("bench", {})), dict(cfg.get("bounds", {})), cfg.get("fixed", {})
-    per_soil, bench_per_soil = cfg.get("soil_bounds", {}), cfg.get("soil_bench", {})
-    for table, rows in (("soil_bounds", per_soil), ("soil_bench", bench_per_soil)):
+    per_soil = cfg.get("soil_bounds", {})
+    own_settings = {"soil_bench": ("bench", bench), "soil_cone_check": ("cone_check", cfg.get("cone_check", {}))}
+    for table, rows in (("soil_bounds", per_soil), *((t, cfg.get(t, {})) for t in own_settings)):
         unknown = sorted(set(rows) - set(SOILS))
         if unknown:
             raise ConfigError(f"{path}: [{table}.{unknown[0]}]: allowed soils {', '.join(SOILS)}")
-    for name, own in bench_per_soil.items():       # a soil's own bench settings replace the common ones
-        stray = sorted(set(own) - set(bench))
-        if stray:
-            raise ConfigError(f"{path}: soil_bench.{name}.{stray[0]}: not in [bench]; allowed {', '.join(bench)}")
+    for table, (common, settings) in own_settings.items():   # a soil's own settings replace the common ones
+        for name, own in cfg.get(table, {}).items():
+            stray = sorted(set(own) - set(settings))
+            if stray:
+                raise ConfigError(f"{path}: {table}.{name}.{stray[0]}: not in [{common}]; allowed "
+                                  f"{', '.join(settings) or 'nothing: there is no such section'}")
+    cone = dict(cfg["cone_check"]) if "cone_check" in cfg else None
     if soil is not None:
-        bench.update(bench_per_soil.get(soil, {}))
+        bench.update(cfg.get("soil_bench", {}).get(soil, {}))
+        if cone is not None:
+            cone.update(cfg.get("soil_cone_check", {}).get(soil, {}))
     need = {"resolution", "size_mm", "stresses_kpa", "speed_m_s", "calibration_seed", "check_seeds", "samples",
             "iterations", "workers"}
     if need - set(bench):
@@ -101,7 +107,6 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
                           "SDs it counts in")
     if not isinstance(bench.get("cone_target", False), bool):
         raise ConfigError(f"{path}: cone_target = {bench['cone_target']!r}: allowed true or false")
-    cone = cfg.get("cone_check")
     if bench.get("cone_target") and cone is None:
         raise ConfigError(f"{path}: cone_target = true without a [cone_check] section: the cone's bed and cone are "
                           "not given")
@@ -111,6 +116,9 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
             raise ConfigError(f"{path}: [cone_check] lacks {', '.join(sorted(need_cone - set(cone)))}")
         if not 0 < float(cone["tolerance"]) < 1:
             raise ConfigError(f"{path}: cone_check.tolerance = {cone['tolerance']}: allowed (0, 1), a share of Table 2")
+        if not 0.5 <= float(cone.get("transfer", 1.0)) <= 1.5:
+            raise ConfigError(f"{path}: cone_check.transfer = {cone['transfer']}: allowed 0.5-1.5, the runs' grains' "
+                              "cone index over this cone's")
     scatter, responses = cfg.get("packing_scatter", {}), (*RESPONSES, "cone_kpa")
     bad = sorted(k for k, v in scatter.items() if k not in responses or not float(v) > 0)
     if bad:
@@ -505,8 +513,8 @@ def cone_transfer(soil: str, seeds: list[int], cfg: dict | None = None, out_dir:
                   workers: int = 2) -> pd.DataFrame:
     """The posterior mean's cone index on the cone's bed at the filter's grains ([cone_check] resolution) and at
     the bench's, the main job's ([bench] resolution), on each packing of `seeds`, `workers` cones at a time: what
-    the cone the filter fitted reads at the grains the runs use. Writes <soil>-cone-transfer.csv, one row per
-    packing with both cones and their ratio."""
+    the cone the filter fitted reads at the grains the runs use (its readings, whatever [cone_check] transfer the
+    filter took). Writes <soil>-cone-transfer.csv, one row per packing with both cones and their ratio."""
     from analysis.core.config import load_resolution
     cfg = cfg or load_config(soil=soil)
     params = posterior_mean(soil, out_dir)
@@ -518,7 +526,7 @@ def cone_transfer(soil: str, seeds: list[int], cfg: dict | None = None, out_dir:
     def one(job):
         s, which = job
         return cone_check(soil, params, {**cfg, "cone_check": {**cfg["cone_check"], "resolution": grains[which]}},
-                          out_dir, s)["mean"]
+                          out_dir, s)["raw"]
 
     found = dict(zip(jobs, in_parallel(one, jobs, workers, f"cone transfer {soil}", "cones")))
     lo, hi = cone_range(soil, cfg)
@@ -579,12 +587,14 @@ def size_verdict(table: pd.DataFrame) -> pd.DataFrame:
 def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, seed: int | None = None) -> dict:
     """The parameter set's cone index on the cone calibration's bed (cfg's [cone_check]: its grains, periodic cell,
     cone, speed and packing, or packing `seed`) against Table 2's: inside when within the tolerance, one such bed's
-    scatter. The cone's summary is kept as <out_dir>/cone/<soil>-s<seed>-<hash>.json and reused."""
+    scatter. With a [cone_check] transfer, `mean` is the cone's reading times it (what the runs' grains read, where
+    that ratio was measured) and `raw` the reading. The cone's summary is kept as
+    <out_dir>/cone/<soil>-s<seed>-<hash>.json and reused."""
     c = dict(cfg["cone_check"])
     if seed is not None:
         c["seed"] = int(seed)
     key = {"params": dict(sorted(rounded(params).items())), "fixed": dict(sorted(cfg.get("fixed", {}).items())),
-           "cone": {k: v for k, v in sorted(c.items()) if k != "tolerance"}}
+           "cone": {k: v for k, v in sorted(c.items()) if k not in ("tolerance", "transfer")}}
     digest = hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]
     path = Path(out_dir) / "cone" / f"{soil}-s{c['seed']}-{digest}.json"
     if path.exists():
@@ -598,10 +608,11 @@ def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, se
         summary = cone_scene([*args, *(["--cohesion", bond] if bond else []),
                               *[a for item in items for a in ("--test-set", item)]], path.with_suffix(".log"))
         atomic_write(path, json.dumps(summary, indent=1))
-    value = summary["cone_index_pa"] / 1000
+    raw = summary["cone_index_pa"] / 1000
+    value = raw * float(c.get("transfer", 1.0))
     lo, hi = cone_range(soil, cfg)
-    return {"mean": float(value), "sd": float("nan"), "target": [lo, hi], "every_packing_inside": bool(lo <= value <= hi),
-            "mean_inside": bool(lo <= value <= hi)}
+    return {"mean": float(value), "raw": float(raw), "sd": float("nan"), "target": [lo, hi],
+            "every_packing_inside": bool(lo <= value <= hi), "mean_inside": bool(lo <= value <= hi)}
 
 
 def cone_range(soil: str, cfg: dict) -> tuple[float, float]:
