@@ -30,13 +30,21 @@ def scene_dirs(tmp_path_factory):
     return root / "runs", root / "beds"
 
 
+def pytest_collection_modifyitems(session, config, items):
+    """The modules whose tests read the side scenes run last, each whole and otherwise in its place: the one-thread
+    scenes of the modules after test_compare (test_soil_bench's, test_study's) run beside the side scenes rather
+    than alone after them, a core idle."""
+    last = {item.path.stem for item in items if "side_scenes" in getattr(item, "fixturenames", ())} - {"test_compare"}
+    items.sort(key=lambda item: item.path.stem in last)       # test_compare asks for them only to start them
+
+
 @pytest.fixture(scope="session")
 def side_scenes(request, scene_dirs):
     """The one-thread scenes that tests only read, two at a time on background threads from the first test that
     asks: test_disk's (SIDE_SCENES), test_duckbeak's and the hard cases' (test_hard_cases.CASES, named
     "hard:<case>"), each only when a test of its module is collected. test_compare asks first, and its one-thread
     clay scene shares the cores with them; the tests after it that run one scene at a time leave a core to these,
-    and the tests that read them wait on them (one at a time, the suite left a core idle for minutes). Name ->
+    and the tests that read them run last and wait on them. Name ->
     future of the finished process (a failed scene is the asking test's failure, not this fixture's)."""
     from tests.test_disk import SIDE_SCENES, run_scene
     collected = {Path(item.nodeid.split("::")[0]).stem for item in request.session.items}   # doctests have no .module

@@ -651,6 +651,7 @@ def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has
     assert seen[:2] == [("clay-running.csv", 8), ("clay-running.csv", 16)] and not (tmp_path / "clay-running.csv").exists()
     table = pd.read_csv(tmp_path / "clay.csv", comment="#")
     assert len(table) == 16 and table["cone_kpa"].notna().all()
+    assert table["cone_reading_kpa"].equals(table["cone_kpa"])        # clay takes its cone's reading as it is
     assert table["cone_kpa"].to_numpy() == pytest.approx(2 * table["normal_cohesion"].round(-1) / 1e3 + 5, abs=0.5)
     assert set(cones) == {cfg["calibration_seed"]} and "cone_kpa" in post["targets"]
     result = bench.check("clay", post, cfg, tmp_path)
@@ -810,7 +811,7 @@ def test_the_cone_screen_runs_no_cone_where_the_bench_already_misses_and_takes_w
 
     def met(soil, params, cfg, out_dir, seed=None):                 # the cone's range's middle: met everywhere
         coned.append(params["normal_cohesion"])
-        return {"mean": sum(bench.cone_range("loam", cfg)) / 2}
+        return {"mean": sum(bench.cone_range("loam", cfg)) / 2, "raw": sum(bench.cone_range("loam", cfg)) / 2}
     monkeypatch.setattr(bench, "cone_check", met)
     assert cfg["cone_screen_sd"] == 3 and bench.load_config(soil="clay")["cone_screen_sd"] == 0
     posts = {}

@@ -258,15 +258,17 @@ def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out
                  cfgs: list[dict] | None = None, with_cone: bool = False, screen=None) -> list[dict]:
     """Every (seed, parameters) evaluation, `cfg["workers"]` at a time, with progress and an ETA; `cfgs`: each
     evaluation's own bench settings in place of cfg (the size check's two boxes); `with_cone`: each tested one's
-    cone index too, on the cone's bed of the same packing seed (`cone_check`), except where `screen(row)` says
-    its bench responses already put it out (`cone_kpa` NaN, `cone_screened` true)."""
+    cone index too, on the cone's bed of the same packing seed (`cone_check`: `cone_kpa` what the filter weighs,
+    `cone_reading_kpa` the cone's reading), except where `screen(row)` says its bench responses already put it out
+    (`cone_kpa` NaN, `cone_screened` true)."""
     def one(i):
         seed, params = seeds_params[i]
         row = evaluate(soil, seed, params, cfgs[i] if cfgs else cfg, out_dir)
         if with_cone and not row.get("failed"):
             if screen is not None and screen(row):
                 return {**row, "cone_kpa": math.nan, "cone_screened": True}
-            row = {**row, "cone_kpa": cone_check(soil, params, cfg, out_dir, seed)["mean"]}
+            cone = cone_check(soil, params, cfg, out_dir, seed)
+            row = {**row, "cone_kpa": cone["mean"], "cone_reading_kpa": cone["raw"]}
         return row
 
     return in_parallel(one, list(range(len(seeds_params))), int(cfg["workers"]), f"calibrate {soil}", "evaluations")
