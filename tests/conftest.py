@@ -30,7 +30,7 @@ def scene_dirs(tmp_path_factory):
     return root / "runs", root / "beds"
 
 
-def pytest_collection_modifyitems(session, config, items):
+def pytest_collection_modifyitems(items):
     """The modules whose tests read the side scenes run last, each whole and otherwise in its place: the one-thread
     scenes of the modules after test_compare (test_soil_bench's, test_study's) run beside the side scenes rather
     than alone after them, a core idle."""
