@@ -46,7 +46,8 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
     cfg = tomllib.loads(Path(path).read_text())
     bench, bounds, fixed = dict(cfg.get("bench", {})), dict(cfg.get("bounds", {})), cfg.get("fixed", {})
     per_soil = cfg.get("soil_bounds", {})
-    own_settings = {"soil_bench": ("bench", bench), "soil_cone_check": ("cone_check", cfg.get("cone_check", {}))}
+    cone = dict(cfg["cone_check"]) if "cone_check" in cfg else None
+    own_settings = {"soil_bench": ("bench", bench), "soil_cone_check": ("cone_check", cone or {})}
     for table, rows in (("soil_bounds", per_soil), *((t, cfg.get(t, {})) for t in own_settings)):
         unknown = sorted(set(rows) - set(SOILS))
         if unknown:
@@ -57,7 +58,6 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
             if stray:
                 raise ConfigError(f"{path}: {table}.{name}.{stray[0]}: not in [{common}]; allowed "
                                   f"{', '.join(settings) or 'nothing: there is no such section'}")
-    cone = dict(cfg["cone_check"]) if "cone_check" in cfg else None
     if soil is not None:
         bench.update(cfg.get("soil_bench", {}).get(soil, {}))
         if cone is not None:
@@ -267,8 +267,7 @@ def evaluate_all(soil: str, seeds_params: list[tuple[int, dict]], cfg: dict, out
         if with_cone and not row.get("failed"):
             if screen is not None and screen(row):
                 return {**row, "cone_kpa": math.nan, "cone_screened": True}
-            cone = cone_check(soil, params, cfg, out_dir, seed)
-            row = {**row, "cone_kpa": cone["mean"], "cone_reading_kpa": cone["raw"]}
+            row = {**row, **cone_columns(soil, params, cfg, out_dir, seed)}
         return row
 
     return in_parallel(one, list(range(len(seeds_params))), int(cfg["workers"]), f"calibrate {soil}", "evaluations")
@@ -617,6 +616,13 @@ def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, se
             "every_packing_inside": bool(lo <= value <= hi), "mean_inside": bool(lo <= value <= hi)}
 
 
+def cone_columns(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, seed: int | None = None) -> dict:
+    """An evaluation's cone columns (`cone_check`): `cone_kpa`, the index the filter weighs, and `cone_reading_kpa`,
+    the cone's reading (the same unless a [cone_check] transfer scales it)."""
+    cone = cone_check(soil, params, cfg, out_dir, seed)
+    return {"cone_kpa": cone["mean"], "cone_reading_kpa": cone["raw"]}
+
+
 def cone_range(soil: str, cfg: dict) -> tuple[float, float]:
     """Table 2's cone index ± the [cone_check] tolerance, kPa."""
     from analysis.core.soil_config import load_soil
@@ -650,7 +656,7 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
     def one(row):
         ran = [n for n in names if n in row]        # the parameters the evaluation set (the others: the soil's)
         return {**{k: row[k] for k in ("id", *ran, *RESPONSES)},
-                "cone_kpa": cone_check(soil, {n: row[n] for n in ran}, cfg, out_dir)["mean"]}
+                **cone_columns(soil, {n: row[n] for n in ran}, cfg, out_dir)}
     with ThreadPoolExecutor(max_workers=workers) as pool:
         table = pd.DataFrame(list(pool.map(one, rows)))
     path = Path(out_dir) / f"{soil}-cones.csv"
