@@ -304,6 +304,14 @@ def add_test_set(p: argparse.ArgumentParser):
                    help="override a soil contact parameter in the test only (the bed settles as configured)")
 
 
+def test_overrides(a) -> dict:
+    """A bench test's contact overrides, `--set` (bed and test) then `--test-set` (test only), each checked against
+    the soil's fields before a bed settles."""
+    test = {**parse_overrides(a.set), **parse_overrides(a.test_set)}
+    soil_with(load_soil(a.soil), test)
+    return test
+
+
 def bed_from_args(a) -> Path:
     return build(a.soil, a.resolution, [float(s) for s in a.size.split(",")], a.seed, a.threads, bed_dir=Path(a.bed_dir),
                  overrides=parse_overrides(a.set), lateral=a.lateral, tiles=a.tiles)

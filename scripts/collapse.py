@@ -23,7 +23,6 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.core.cli_types import folder, option  # noqa: E402
 from analysis.core.schema import ROOT, ConfigError, Field  # noqa: E402
-from analysis.core.soil_config import load_soil, parse_overrides, soil_with  # noqa: E402
 from analysis.core.io import atomic_write  # noqa: E402
 from analysis.soil.collapse import slope_angle  # noqa: E402
 
@@ -122,8 +121,7 @@ def main(argv=None) -> int:
     from scripts import beds as bed
     a = arguments().parse_args(argv)
     try:
-        test = {**parse_overrides(a.set), **parse_overrides(a.test_set)}
-        soil_with(load_soil(a.soil), test)              # every override checked before a bed settles
+        test = bed.test_overrides(a)
         row = run(bed.bed_from_args(a), a.soil, a.threads, test, max_time=a.max_time)
     except (ConfigError, ValueError) as e:
         print(f"collapse: {e}", file=sys.stderr)

@@ -28,7 +28,7 @@ from analysis.core.cli_types import folder, option
 from analysis.core.config import CONE_DEPTH, CONE_FIELDS
 from analysis.core.schema import ConfigError  # noqa: E402
 from analysis.core.bed_spec import CONE_DIR  # noqa: E402
-from analysis.core.soil_config import SOIL_FIELDS, load_soil, parse_overrides, soil_with
+from analysis.core.soil_config import SOIL_FIELDS, load_soil, soil_with
 from analysis.core.io import atomic_write  # noqa: E402
 
 S313_BASE_DIAMETER = 0.01283     # m
@@ -205,8 +205,7 @@ def main(argv=None) -> int:
     from scripts import beds as bed
     a = arguments().parse_args(argv)
     try:
-        test = {**parse_overrides(a.set), **parse_overrides(a.test_set)}
-        soil_with(load_soil(a.soil), test)              # every override checked before a bed settles
+        test = bed.test_overrides(a)
         summary = run(bed.bed_from_args(a), a.soil, a.cone_scale, a.cone_speed, a.cohesion, a.threads, a.depth / 1000,
                       out_dir=Path(a.out) if a.out else None, overrides=test, damage=a.damage)
     except (ConfigError, ValueError) as e:

@@ -32,7 +32,6 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.core.cli_types import folder, option  # noqa: E402
 from analysis.core.schema import ROOT, ConfigError, Field
-from analysis.core.soil_config import load_soil, parse_overrides, soil_with
 from analysis.core.io import atomic_write  # noqa: E402
 
 STRESS = Field(1.0, 1000.0, unit="kPa", meaning="normal stress on the sample")
@@ -204,8 +203,7 @@ def main(argv=None) -> int:
     a = arguments().parse_args(argv)
     stresses = a.stress
     try:
-        test = {**parse_overrides(a.set), **parse_overrides(a.test_set)}
-        soil_with(load_soil(a.soil), test)              # every override checked before a bed settles
+        test = bed.test_overrides(a)
         if a.preload is not None and a.preload <= max(stresses):
             raise ConfigError(f"--preload = {a.preload:g} kPa: allowed above the highest --stress ({max(stresses):g} "
                               "kPa), the load the sample is eased to")
