@@ -906,10 +906,14 @@ def test_soils_apart_reads_a_response_as_telling_two_soils_apart_only_when_its_i
     assert soils_apart.run(tmp_path) == []                     # one soil checked: nothing to set apart
 
 
-def test_filter_packing_reads_an_offset_of_the_filters_packing_only_where_the_checks_resolve_it(tmp_path):
+def test_filter_packing_reads_an_offset_of_the_filters_packing_only_where_the_checks_resolve_it(tmp_path, monkeypatch):
     """Made-up posterior checks on packings 1-3: packing 1 reads c 3 kPa under the others (over 0.5 kPa of noise),
-    φ with no offset; the planes' deepest checks are no posteriors and stay out, earlier calibrations' folders count."""
+    φ with no offset; the planes' deepest checks are no posteriors and stay out, earlier calibrations' folders count,
+    and so does a soil's current check only while its filter runs on packing 1 alone."""
     from analysis.soil import soils_apart
+    common = soils_apart.load_config
+    monkeypatch.setattr(soils_apart, "load_config", lambda soil=None: {
+        **common(soil=soil), **({"calibration_seed": [1, 2, 3]} if soil == "sand" else {"calibration_seed": 1})})
     assert soils_apart.filter_packing_run(tmp_path) is None                 # no check yet
     rng = np.random.default_rng(7)
     (tmp_path / "earlier").mkdir()
@@ -917,8 +921,8 @@ def test_filter_packing_reads_an_offset_of_the_filters_packing_only_where_the_ch
         c = 10 + 5 * i + rng.normal(0, 0.5, 3) + np.array([-3, 0, 0])
         phi = 30 + rng.normal(0, 1.0, 3)
         pd.DataFrame({"seed": [1, 2, 3], "c_kpa": c, "phi_deg": phi}).to_csv(tmp_path / name, index=False)
-    pd.DataFrame({"seed": [1, 2, 3], "c_kpa": [90, 0, 0], "phi_deg": [30, 30, 30]}) \
-        .to_csv(tmp_path / "loam-deepest-check.csv", index=False)
+    for name in ["loam-deepest-check.csv", "sand-check.csv"]:              # a deepest set; packings in turn
+        pd.DataFrame({"seed": [1, 2, 3], "c_kpa": [90, 0, 0], "phi_deg": [30, 30, 30]}).to_csv(tmp_path / name, index=False)
     table = pd.read_csv(soils_apart.filter_packing_run(tmp_path), comment="#").set_index("response")
     assert table.loc["c_kpa", "checks"] == 4 and table.loc["c_kpa", "below"] == 4
     assert table.loc["c_kpa", "lo"] < -3 < table.loc["c_kpa", "hi"] < 0 and table.loc["c_kpa", "resolved"]

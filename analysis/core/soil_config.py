@@ -28,6 +28,7 @@ SOIL_FIELDS = {
 SOIL_DEFAULTS = {"new_contact_cohesion": 1.0, "bond_fragile": 1, "pressed_adhesion": 0.0}   # optional in a soil
 # config; a run's id leaves them out
 SOILS = ("clay", "loam", "sand")
+SOIL_COLOURS = {"clay": "tab:brown", "loam": "tab:olive", "sand": "tab:orange"}    # one colour a soil in every plot
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ from analysis.core.config import SEED
 from analysis.core.io import atomic_csv, atomic_write, say
 from analysis.core.runner import run_logged
 from analysis.core.schema import ROOT, ConfigError
-from analysis.core.soil_config import BENCH_DIR
+from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS
 
 CONFIG = ROOT / "configs/bench_calibration.toml"
 TARGETS = ROOT / "configs/field/soil_targets.csv"
@@ -709,7 +709,6 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
     if not soils:                     # no filter finished: the planes over the running ones' finished iterations
         return surfaces_report(out_dir)
     names = list(load_config()["bounds"])
-    colours = {"clay": "tab:brown", "loam": "tab:olive", "sand": "tab:orange"}
     fig, axes = plt.subplots(len(soils), len(names), figsize=(4 * len(names), 2.6 * len(soils)), squeeze=False)
     for i, soil in enumerate(soils):
         t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
@@ -722,10 +721,11 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
                 ax.set_axis_off()
                 continue
             ax.scatter(t[n], t["iteration"], s=12, c="0.6", label="samples")
-            ax.scatter(last[n], last["iteration"], s=20 + 300 * last["weight_last"], c=colours[soil], label="last, by weight")
+            ax.scatter(last[n], last["iteration"], s=20 + 300 * last["weight_last"], c=SOIL_COLOURS[soil],
+                       label="last, by weight")
             lo, hi = post["interval"][n]
-            ax.axvspan(lo, hi, color=colours[soil], alpha=0.15, label="95 % interval")
-            ax.axvline(post["mean"][n], color=colours[soil], label="posterior mean")
+            ax.axvspan(lo, hi, color=SOIL_COLOURS[soil], alpha=0.15, label="95 % interval")
+            ax.axvline(post["mean"][n], color=SOIL_COLOURS[soil], label="posterior mean")
             ax.set_xlabel(n), ax.set_ylabel(f"{soil}: iteration"), ax.set_yticks(sorted(t["iteration"].unique()))
     axes[0][0].legend(fontsize=7)
     fig.tight_layout()
@@ -744,7 +744,7 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
                 lo, hi = checks[soil][r]["target"]
             else:
                 lo, hi = load_targets(soil).loc[r, ["lo", "hi"]]
-            ax.add_patch(plt.Rectangle((i - 0.35, lo), 0.7, hi - lo, color=colours[soil], alpha=0.2,
+            ax.add_patch(plt.Rectangle((i - 0.35, lo), 0.7, hi - lo, color=SOIL_COLOURS[soil], alpha=0.2,
                                        label="target range" if i == 0 else None))
             t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
             if r in t:
@@ -752,7 +752,7 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
             check_path = Path(out_dir) / f"{soil}-check.csv"
             c = pd.read_csv(check_path, comment="#") if check_path.exists() else pd.DataFrame()
             points = c[r].to_numpy(float) if r in c else [checks[soil][r]["mean"]] if r in checks.get(soil, {}) else []
-            ax.scatter(np.full(len(points), i + 0.15), points, s=36, marker="D", c=colours[soil],
+            ax.scatter(np.full(len(points), i + 0.15), points, s=36, marker="D", c=SOIL_COLOURS[soil],
                        label="posterior mean, check packings" if i == 0 else None)
         ax.set_xticks(range(len(soils)), soils), ax.set_title(r), ax.set_xlim(-0.6, len(soils) - 0.4)
         ax.autoscale_view()
@@ -982,10 +982,9 @@ def profile_plot(profile: pd.DataFrame, path: Path) -> Path:
     import matplotlib.pyplot as plt
     names = list(dict.fromkeys(profile["parameter"]))
     fig, axes = plt.subplots(1, len(names), figsize=(3.4 * len(names), 3.0), squeeze=False, sharey=True)
-    colours = {"clay": "tab:brown", "loam": "tab:olive", "sand": "tab:orange"}
     for ax, name in zip(axes[0], names):
         for soil, rows in profile[profile["parameter"] == name].groupby("soil"):
-            ax.plot(rows["value"], rows["margin_sd"], "o-", ms=3, c=colours.get(soil), label=soil)
+            ax.plot(rows["value"], rows["margin_sd"], "o-", ms=3, c=SOIL_COLOURS.get(soil), label=soil)
         ax.axhline(0, c="0.5", lw=0.8)
         ax.set_xlabel(name)
     axes[0][0].set_ylabel("deepest margin, residual SDs")

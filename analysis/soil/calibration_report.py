@@ -10,7 +10,7 @@ import pandas as pd
 
 from analysis.soil.calibrate import TOLERANCE, cone_result_name
 from analysis.core.schema import ROOT
-from analysis.core.soil_config import SOILS, load_soil
+from analysis.core.soil_config import SOIL_COLOURS, load_soil
 from analysis.core.io import atomic_csv, read_table, say, shown, stamp
 from analysis.core.bed_spec import BED_DIR, CONE_DIR
 
@@ -54,7 +54,7 @@ def run(out=CAL) -> pd.DataFrame:
     rows = []
     kept = read_table(out / "summary.csv").set_index("soil") if (out / "summary.csv").exists() else pd.DataFrame()
     fig, ax = plt.subplots(figsize=(6, 5))
-    for soil, colour in zip(SOILS, ("tab:brown", "tab:olive", "tab:orange")):
+    for soil, colour in SOIL_COLOURS.items():
         runs = accepted(soil)
         if runs is None:
             continue

@@ -104,12 +104,18 @@ def filter_packing(checks: list[pd.DataFrame], seed: int) -> pd.DataFrame:
 
 def filter_packing_run(out_dir: Path = BENCH_DIR) -> Path | None:
     """filter-packing.csv from every posterior's check in out_dir and its folders of earlier calibrations
-    (`<soil>-check.csv`; the checks of the planes' deepest sets are not posteriors and are left out); None when
-    fewer than two checks are there."""
+    (`<soil>-check.csv`), each fitted on the common filter packing; None when fewer than two checks are there. Left
+    out: the checks of the planes' deepest sets (not posteriors) and a current posterior whose soil's filter takes
+    its packings in turn (`[soil_bench.<soil>] calibration_seed`), which no one packing fitted."""
     out_dir = Path(out_dir)
-    files = sorted(f for f in [*out_dir.glob("*-check.csv"), *out_dir.glob("*/*-check.csv")]
-                   if not f.name.endswith("-deepest-check.csv"))
     seed = filter_seeds(load_config())[0]
+
+    def one_packing(f: Path) -> bool:
+        if f.parent != out_dir or f.stem.removesuffix("-check") not in SOILS:
+            return True
+        return filter_seeds(load_config(soil=f.stem.removesuffix("-check"))) == [seed]
+    files = sorted(f for f in [*out_dir.glob("*-check.csv"), *out_dir.glob("*/*-check.csv")]
+                   if not f.name.endswith("-deepest-check.csv") and one_packing(f))
     table = filter_packing([pd.read_csv(f, comment="#") for f in files], seed)
     if table.empty:
         return None
