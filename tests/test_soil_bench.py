@@ -928,3 +928,19 @@ def test_filter_packing_reads_an_offset_of_the_filters_packing_only_where_the_ch
     assert table.loc["c_kpa", "lo"] < -3 < table.loc["c_kpa", "hi"] < 0 and table.loc["c_kpa", "resolved"]
     assert table.loc["phi_deg", "lo"] < 0 < table.loc["phi_deg", "hi"] and not table.loc["phi_deg", "resolved"]
     assert "collapse_deg" not in table.index                                  # no check has it
+
+
+def test_check_odds_fall_with_the_packings_scatter_and_the_number_of_packings_checked(tmp_path):
+    """A set reading a target's middle on average: a range ten SDs wide holds every packing, one two SDs wide holds
+    one packing 68 % of the time and three 32 %; the written table has every soil's targets and their product."""
+    from analysis.soil import soils_apart
+    t = soils_apart.check_odds({"wide": (0, 10), "narrow": (0, 2)}, {"wide": 1.0, "narrow": 1.0}, 3).set_index("response")
+    assert t.loc["wide", "all_inside"] > 0.999
+    assert abs(t.loc["narrow", "one_inside"] - 0.6827) < 1e-3 and abs(t.loc["narrow", "all_inside"] - 0.6827 ** 3) < 1e-3
+    assert soils_apart.check_odds({"narrow": (0, 2)}, {"narrow": 1.0}, 5).iloc[0].all_inside < t.loc["narrow", "all_inside"]
+    table = pd.read_csv(soils_apart.check_odds_run(tmp_path), comment="#")
+    for soil, rows in table.groupby("soil"):
+        targets = rows[rows.response != "every target"]
+        assert {"c_kpa", "phi_deg", "collapse_deg"} <= set(targets.response)
+        every = rows[rows.response == "every target"].iloc[0]
+        assert abs(every.all_inside - targets.all_inside.prod()) < 2e-3

@@ -3,7 +3,8 @@ posteriors' checks (the posterior mean on the check packings, `<soil>-check.csv`
 the difference, and each calibrated parameter's posterior interval (`<soil>-posterior.json`). A response tells two
 soils apart when the interval of the difference of their packings' means leaves zero out; whether the targets ask it
 to is whether the two soils' target ranges are disjoint. Beside them, how the filter's own packing reads against the
-other check packings over every posterior checked so far (`filter-packing.csv`)."""
+other check packings over every posterior checked so far (`filter-packing.csv`), and how far the check packings'
+scatter lets a check on each packing tell a set inside a target at all (`check-odds.csv`)."""
 import itertools
 import json
 from pathlib import Path
@@ -124,4 +125,44 @@ def filter_packing_run(out_dir: Path = BENCH_DIR) -> Path | None:
                f"./holes calibration-report; per bench response, over {len(files)} posterior checks (bench/ and its "
                f"folders), packing {seed}'s reading (the filters') minus the other check packings' mean: mean, 95 % t "
                "interval, checks pooled, and in how many it reads lower")
+    return path
+
+
+def check_odds(ranges: dict[str, tuple], scatter: dict[str, float], packings: int) -> pd.DataFrame:
+    """Per response: what a check on `packings` packings can tell of its target range (lo, hi) given the packings'
+    scatter (SD at one parameter set): the range's half-width in packing SDs, the chance that one packing of a set
+    whose packings' mean reads the range's middle lies inside (`one_inside`) and that every one of them does
+    (`all_inside`: the best odds of the per-packing check), and the standard error of the packings' mean.
+
+    >>> t = check_odds({"c_kpa": (0, 12)}, {"c_kpa": 5.1}, 3).iloc[0]
+    >>> round(t.half_width_sd, 2), round(t.one_inside, 2), round(t.all_inside, 2), round(t.mean_se, 2)
+    (1.18, 0.76, 0.44, 2.94)
+    """
+    rows = []
+    for r, (lo, hi) in ranges.items():
+        half_sd = (hi - lo) / 2 / scatter[r]
+        one = 2 * stats.norm.cdf(half_sd) - 1
+        rows.append({"response": r, "lo": lo, "hi": hi, "packing_sd": scatter[r], "half_width_sd": half_sd,
+                     "one_inside": one, "all_inside": one ** packings, "mean_se": scatter[r] / np.sqrt(packings)})
+    return pd.DataFrame(rows)
+
+
+def check_odds_run(out_dir: Path = BENCH_DIR) -> Path:
+    """check-odds.csv: check_odds for every soil's targets (the cone's where its filter fits it) with the
+    [packing_scatter] SDs and its [bench] check_seeds."""
+    tables = []
+    for soil in SOILS:
+        cfg = load_config(soil=soil)
+        odds = check_odds(target_ranges(soil, cfg), cfg["packing_scatter"], len(cfg["check_seeds"]))
+        every = pd.DataFrame([{"response": "every target", "one_inside": odds["one_inside"].prod(),
+                               "all_inside": odds["all_inside"].prod()}])
+        tables.append(pd.concat([odds, every]).assign(soil=soil, packings=len(cfg["check_seeds"])))
+    table = pd.concat(tables)[["soil", "response", "lo", "hi", "packing_sd", "half_width_sd", "packings",
+                               "one_inside", "all_inside", "mean_se"]]
+    path = Path(out_dir) / "check-odds.csv"
+    atomic_csv(table.round(3), path,
+               "./holes calibration-report; per soil and target, the packings' SD ([packing_scatter]) against the "
+               "range: the chance one packing, and every check packing, of a set whose packings' mean reads the "
+               "range's middle lies inside, and the standard error of the check packings' mean; `every target`: all of "
+               "a soil's targets at once, the packings' scatter taken as independent between responses")
     return path
