@@ -131,7 +131,7 @@ def filter_packing_run(out_dir: Path = BENCH_DIR) -> Path | None:
 def check_odds(ranges: dict[str, tuple], scatter: dict[str, float], packings: int) -> pd.DataFrame:
     """Per response: what a check on `packings` packings can tell of its target range (lo, hi) given the packings'
     scatter (SD at one parameter set): the range's half-width in packing SDs, the chance that one packing of a set
-    whose packings' mean reads the range's middle lies inside (`one_inside`) and that every one of them does
+    whose mean over many packings is the range's middle lies inside (`one_inside`) and that every one of them does
     (`all_inside`: the best odds of the per-packing check), and the standard error of the packings' mean.
 
     >>> t = check_odds({"c_kpa": (0, 12)}, {"c_kpa": 5.1}, 3).iloc[0]
@@ -162,7 +162,7 @@ def check_odds_run(out_dir: Path = BENCH_DIR) -> Path:
     path = Path(out_dir) / "check-odds.csv"
     atomic_csv(table.round(3), path,
                "./holes calibration-report; per soil and target, the packings' SD ([packing_scatter]) against the "
-               "range: the chance one packing, and every check packing, of a set whose packings' mean reads the "
+               "range: the chance one packing, and every check packing, of a set whose mean over many packings is the "
                "range's middle lies inside, and the standard error of the check packings' mean; `every target`: all of "
                "a soil's targets at once, the packings' scatter taken as independent between responses")
     return path
