@@ -112,9 +112,8 @@ def filter_packing_run(out_dir: Path = BENCH_DIR) -> Path | None:
     seed = filter_seeds(load_config())[0]
 
     def one_packing(f: Path) -> bool:
-        if f.parent != out_dir or f.stem.removesuffix("-check") not in SOILS:
-            return True
-        return filter_seeds(load_config(soil=f.stem.removesuffix("-check"))) == [seed]
+        soil = f.stem.removesuffix("-check")
+        return f.parent != out_dir or soil not in SOILS or filter_seeds(load_config(soil=soil)) == [seed]
     files = sorted(f for f in [*out_dir.glob("*-check.csv"), *out_dir.glob("*/*-check.csv")]
                    if not f.name.endswith("-deepest-check.csv") and one_packing(f))
     table = filter_packing([pd.read_csv(f, comment="#") for f in files], seed)
