@@ -631,15 +631,16 @@ def test_a_cone_transfer_scales_the_reading_the_filter_takes_and_reuses_the_same
 def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has_its_own_cone(tmp_path, monkeypatch):
     """`cone_target`: the filter reads the cone index beside the bench's three responses, each evaluation's cone on
     the cone's bed of the evaluation's own packing; the table of the finished iterations is kept while it runs;
-    the check runs a cone on every check packing and judges it against Table 2 ± the tolerance like the bench
-    responses; the posterior names the cone among its targets."""
+    the check runs a cone on every check packing, at the bench's grains whatever the filter's cone took, and judges
+    it against Table 2 ± the tolerance like the bench responses; the posterior names the cone among its targets."""
     def fake(soil, seed, params, cfg, out_dir):
         return {"soil": soil, "seed": seed, **params, **made_up_bench(params), "tau_peak_kpa": [], "wall_s": 0.0}
     monkeypatch.setattr(bench, "evaluate", fake)
-    cones = []
+    cones, grains = [], []
 
     def fake_cone(args, log_path):                    # a cone that reads 2 kPa per kPa of bond plus 5 kPa per packing
         cones.append(int(args[args.index("--seed") + 1]))
+        grains.append(args[args.index("--resolution") + 1])
         return {"cone_index_pa": 1e3 * (2 * float(args[args.index("--cohesion") + 1]) / 1e3 + 5 * cones[-1])}
     monkeypatch.setattr(bench, "cone_scene", fake_cone)
     cfg = {**bench.load_config(soil="clay"), "samples": 8, "iterations": 2, "workers": 2}
@@ -656,6 +657,8 @@ def test_with_the_cone_as_a_fourth_target_every_evaluation_and_check_packing_has
     assert set(cones) == {cfg["calibration_seed"]} and "cone_kpa" in post["targets"]
     result = bench.check("clay", post, cfg, tmp_path)
     assert sorted(cones[16:]) == sorted(cfg["check_seeds"])
+    assert set(grains[:16]) == {cfg["cone_check"]["resolution"]} and set(grains[16:]) == {cfg["resolution"]} \
+        and cfg["resolution"] != cfg["cone_check"]["resolution"]
     assert result["cone_kpa"]["sd"] > 0 and result["cone_kpa"]["target"] == pytest.approx([382.5, 517.5])
     assert "cone_kpa" in pd.read_csv(tmp_path / "clay-check.csv", comment="#")
     assert [p.name for p in bench.report(tmp_path)][:2] == ["posterior.png", "responses.png"]

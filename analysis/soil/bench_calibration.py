@@ -427,9 +427,10 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
     results/calibration/bench/<soil>-<label>.csv and .json. Returns per response: the mean over packings, their SD and
     whether every packing lies inside the target's range (strict: with packings as scattered as these runs' a set
     centred in every range passes on three packings about a fifth of the time, `every_packing_chance`) and
-    whether their mean does; with a [cone_check], the cone index too: on every check
-    packing when the filter fitted it (`cone_target`), else on the cone's one packing (`cone_check`)."""
-    cfg = cfg or load_config(soil=soil)
+    whether their mean does; with a [cone_check], the cone index too, read at the bench's grains (the runs', `runs_cone`)
+    whatever grains the filter's cone took: on every check packing when the filter fitted it (`cone_target`), else on
+    the cone's one packing (`cone_check`)."""
+    cfg = runs_cone(cfg or load_config(soil=soil))
     params = {k: float(v) for k, v in post["mean"].items()}
     rows = evaluate_all(soil, [(int(s), params) for s in cfg["check_seeds"]], cfg, out_dir,
                         with_cone=bool(cfg.get("cone_target")))
@@ -445,6 +446,18 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
         out["cone_kpa"] = cone_check(soil, params, cfg, out_dir)
     atomic_write(Path(out_dir) / f"{soil}-{label}.json", json.dumps(out, indent=1))
     return out
+
+
+def runs_cone(cfg: dict) -> dict:
+    """cfg with its [cone_check] cone at the bench's grains ([bench] resolution, the runs'), its reading taken as it
+    is (no transfer): the cone the check and the cone transfer read. Its bed, cone and packing stay the cone's.
+
+    >>> runs_cone({"resolution": "medium", "cone_check": {"resolution": "coarse", "transfer": 0.84, "seed": 1}})
+    {'resolution': 'medium', 'cone_check': {'resolution': 'medium', 'transfer': 1.0, 'seed': 1}}
+    """
+    if "cone_check" not in cfg:
+        return cfg
+    return {**cfg, "cone_check": {**cfg["cone_check"], "resolution": cfg["resolution"], "transfer": 1.0}}
 
 
 def every_packing_chance(ranges: dict, scatter: dict, packings: int, means: dict | None = None) -> float:
@@ -526,8 +539,7 @@ def cone_transfer(soil: str, seeds: list[int], cfg: dict | None = None, out_dir:
 
     def one(job):
         s, which = job
-        return cone_check(soil, params, {**cfg, "cone_check": {**cfg["cone_check"], "resolution": grains[which]}},
-                          out_dir, s)["raw"]
+        return cone_check(soil, params, runs_cone(cfg) if which == "runs" else cfg, out_dir, s)["raw"]
 
     found = dict(zip(jobs, in_parallel(one, jobs, workers, f"cone transfer {soil}", "cones")))
     lo, hi = cone_range(soil, cfg)
