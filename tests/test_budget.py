@@ -69,6 +69,27 @@ def test_the_budget_table_puts_each_part_from_its_source_on_made_up_results():
     assert one.not_measured == "grain_size, model, machine, soil_parameters, packing" and one.dominant == "measurement"
 
 
+def test_a_metric_the_convergence_study_lacks_takes_the_strips_limit_and_says_so():
+    """The openings are not in the convergence study: their grain-size part comes from the validation's strip and the
+    row names it; a metric both read keeps the convergence study's; one neither reads stays not measured."""
+    import pandas as pd
+    from analysis.holes import budget_report
+    comparison = pd.DataFrame([{"soil": "sand", "metric": m, "field_mean": 50.0, "sim_mean": 60.0, "band": 5.0,
+                                "calibration_target": False, "n_holes": 8, "n_runs": 1} for m in ("L0", "h1", "L1")])
+    holes = pd.DataFrame({"soil": "sand", "run": ["a"] * 2, "found": True, "L0": 60.0, "h1": 60.0, "L1": 60.0})
+    convergence = pd.DataFrame([{"metric": "h1", "radius_mm": 6.0, "mean": 20.0, "limit": 12.0, "limit_lo": 10.0,
+                                 "limit_hi": 14.0}])
+    strip = pd.DataFrame([{"metric": m, "radius_mm": 6.0, "mean": 70.0, "limit": 61.0, "limit_lo": 40.0,
+                           "limit_hi": 80.0} for m in ("L0", "h1")])
+    t = budget_report.table(comparison, holes, budget_report.grain_limits(convergence, strip), 6.0, None, None)
+    t = t.set_index("metric")
+    assert t.loc["L0", "grain_size"] == pytest.approx(9.0) and t.loc["L0", "grain_size_source"] == "strip"
+    assert (t.loc["L0", "grain_size_lo"], t.loc["L0", "grain_size_hi"]) == pytest.approx((-10.0, 30.0))
+    assert t.loc["h1", "grain_size"] == pytest.approx(8.0) and t.loc["h1", "grain_size_source"] == "convergence"
+    assert np.isnan(t.loc["L1", "grain_size"]) and t.loc["L1", "grain_size_source"] == ""
+    assert "grain_size" in t.loc["L1", "not_measured"] and "grain_size" not in t.loc["L0", "not_measured"]
+
+
 def test_the_validation_strips_at_three_grain_sizes_give_each_metrics_limit():
     """Clay's rows of the three validation presets (r = 6, 5, 4 mm), made up linear in r with small scatter: the
     limit of each metric comes back inside its interval, and a grain size is judged within 5 % only when it is."""

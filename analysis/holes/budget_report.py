@@ -2,7 +2,9 @@
 its parts (analysis/holes/budget.py), each from the result that measures it:
 
 - grain size: the metric's mean at the preset's grain radius minus its r → 0 limit (results/validation/
-  grain_size.csv, the convergence study's clay hole), taken as the same shift in every soil;
+  grain_size.csv, the convergence study's clay hole), taken as the same shift in every soil; a metric the
+  convergence study does not read (the openings: its runs kept no grains) takes the limit of the validation's own
+  clay strip at several grain sizes (grain_size_strip.csv beside the budget), its source named in the row;
 - measurement: the comparison's band (holes of known size carved in the same beds);
 - machine: the fitted P and spring rate's 95 % half-widths (the machine fit of the preset's reading of L2) times the
   metric's slopes in P and k over the machine design's runs, in quadrature (linear propagation);
@@ -45,6 +47,21 @@ def default_out(preset: str) -> Path:
     (True, True)
     """
     return OUT if preset == OWN else OUT / preset
+
+
+def grain_limits(convergence: pd.DataFrame, strip: pd.DataFrame | None) -> pd.DataFrame:
+    """The r → 0 limits the budget takes, with their `source`: the convergence study's for every metric it reads,
+    the validation strip's for the others.
+
+    >>> c = pd.DataFrame({"metric": ["h1"], "radius_mm": [6.0], "mean": [20.0], "limit": [7.0]})
+    >>> s = pd.DataFrame({"metric": ["h1", "L0"], "radius_mm": [6.0, 6.0], "mean": [14.0, 100.0], "limit": [0.0, 90.0]})
+    >>> grain_limits(c, s)[["metric", "limit", "source"]].values.tolist()
+    [['h1', 7.0, 'convergence'], ['L0', 90.0, 'strip']]
+    """
+    out = convergence.assign(source="convergence")
+    if strip is not None and not strip.empty:
+        out = pd.concat([out, strip[~strip.metric.isin(convergence.metric)].assign(source="strip")], ignore_index=True)
+    return out
 
 
 def grain_shift(grain: pd.DataFrame, radius_mm: float) -> dict:
@@ -188,6 +205,7 @@ def table(comparison: pd.DataFrame, holes: pd.DataFrame, grain: pd.DataFrame, ra
           soil_parts: pd.DataFrame | None = None) -> pd.DataFrame:
     """One row per soil and metric of one preset's comparison: the miss, its parts and what was not measured."""
     shifts = grain_shift(grain, radius_mm)
+    sources = grain.groupby("metric").source.first().to_dict() if "source" in grain else {}
     soil_part = {} if soil_parts is None or soil_parts.empty else \
         soil_parts.set_index(["soil", "metric"]).soil_part.to_dict()
     slopes = machine_slopes(machine_rows) if machine_rows is not None else {}
@@ -203,7 +221,8 @@ def table(comparison: pd.DataFrame, holes: pd.DataFrame, grain: pd.DataFrame, ra
         b["not_measured"] = ", ".join("soil_parameters" if k == "soil" else k for k in b["not_measured"].split(", ") if k)
         rows.append({**b, "soil": r.soil, "metric": r.metric, "calibration_target": bool(r.calibration_target),
                      "field_mean": r.field_mean, "sim_mean": r.sim_mean, "n_holes": r.n_holes, "n_runs": r.n_runs,
-                     "grain_size_lo": shift_lo, "grain_size_hi": shift_hi})
+                     "grain_size_lo": shift_lo, "grain_size_hi": shift_hi,
+                     "grain_size_source": sources.get(r.metric, "") if math.isfinite(shift) else ""})
     return pd.DataFrame(rows)
 
 
@@ -228,7 +247,8 @@ def run(preset: str = OWN, out: Path | None = None,
         raise ConfigError(f"{comparison_path} has no rows of preset {preset!r}: run `./holes compare "
                           f"--preset {preset}` first")
     holes = read_table(kept_holes(preset))
-    grain = read_table(OUT / "grain_size.csv")
+    strip = out / "grain_size_strip.csv"
+    grain = grain_limits(read_table(OUT / "grain_size.csv"), read_table(strip) if strip.exists() else None)
     radius_mm = 1000 * load_resolution(p.resolution).radius
     machine_rows = machine_fit = None
     if getattr(p, "machine", None) and (Path(machine_dir) / "machine_fit.csv").exists():
@@ -243,7 +263,7 @@ def run(preset: str = OWN, out: Path | None = None,
     soil_parts = posterior_soil_parts(out, note) if p.soils == "bench" else bond_soil_parts(holes, out, note)
     t = table(comparison, holes, grain, radius_mm, machine_rows, machine_fit, soil_parts)
     t = t[["soil", "metric", "calibration_target", "field_mean", "sim_mean", "n_holes", "n_runs", "miss", "grain_size",
-           "grain_size_lo", "grain_size_hi", "model", "measurement", "machine", "packing", "soil_parameters",
+           "grain_size_lo", "grain_size_hi", "grain_size_source", "model", "measurement", "machine", "packing", "soil_parameters",
            "uncertain", "resolved", "dominant", "not_measured"]]
     path = out / "error_budget.csv"
     atomic_csv(t.round(3), path, note + f"; mm; the miss (sim − field) = grain_size + model; 95 % half-widths "
@@ -288,7 +308,8 @@ def bond_soil_parts(holes: pd.DataFrame, out: Path, note: str, study: Path = ROO
 
 
 def picture(t: pd.DataFrame, path: Path, preset: str) -> Path:
-    """Per soil, each metric's miss beside its systematic parts and its uncertain parts' half-widths."""
+    """Per soil, each metric's miss beside its systematic parts (the grain size's interval and the model's, the miss
+    less that interval, as error bars) and its uncertain parts' half-widths."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -301,14 +322,17 @@ def picture(t: pd.DataFrame, path: Path, preset: str) -> Path:
         s = t[t.soil == soil].reset_index(drop=True)
         for j, (part, colour) in enumerate(parts):
             values = s[part].to_numpy(float)
+            lo, hi = s.grain_size_lo.to_numpy(float), s.grain_size_hi.to_numpy(float)
+            span = {"grain_size": (lo, hi), "model": (s.miss - hi, s.miss - lo)}.get(part)
+            yerr = None if span is None else np.nan_to_num([values - span[0], span[1] - values])
             ax.bar(np.arange(len(s)) + (j - len(parts) / 2 + 0.5) * width, np.nan_to_num(values), width,
-                   color=colour, label=part if soil == soils[0] else None,
+                   yerr=yerr, capsize=2, color=colour, label=part if soil == soils[0] else None,
                    hatch="//" if part in ("measurement", "machine", "packing", "soil_parameters") else None)
         ax.axhline(0, color="k", lw=0.5)
         ax.set_xticks(range(len(s)), [m + (" (target)" if c else "") for m, c in zip(s.metric, s.calibration_target)],
                       rotation=30, fontsize=8)
         ax.set_title(f"{soil} ({preset})")
-    axes[0][0].set_ylabel("mm; hatched: 95 % half-widths")
+    axes[0][0].set_ylabel("mm (95 %)\nhatched: half-widths; bars: intervals")
     axes[0][0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
