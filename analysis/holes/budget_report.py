@@ -247,7 +247,7 @@ def run(preset: str = OWN, out: Path | None = None,
         raise ConfigError(f"{comparison_path} has no rows of preset {preset!r}: run `./holes compare "
                           f"--preset {preset}` first")
     holes = read_table(kept_holes(preset))
-    strip = out / "grain_size_strip.csv"
+    strip = default_out(preset) / "grain_size_strip.csv"      # where `./holes bench grain-size --strip` writes it
     grain = grain_limits(read_table(OUT / "grain_size.csv"), read_table(strip) if strip.exists() else None)
     radius_mm = 1000 * load_resolution(p.resolution).radius
     machine_rows = machine_fit = None
@@ -263,8 +263,8 @@ def run(preset: str = OWN, out: Path | None = None,
     soil_parts = posterior_soil_parts(out, note) if p.soils == "bench" else bond_soil_parts(holes, out, note)
     t = table(comparison, holes, grain, radius_mm, machine_rows, machine_fit, soil_parts)
     t = t[["soil", "metric", "calibration_target", "field_mean", "sim_mean", "n_holes", "n_runs", "miss", "grain_size",
-           "grain_size_lo", "grain_size_hi", "grain_size_source", "model", "measurement", "machine", "packing", "soil_parameters",
-           "uncertain", "resolved", "dominant", "not_measured"]]
+           "grain_size_lo", "grain_size_hi", "grain_size_source", "model", "measurement", "machine", "packing",
+           "soil_parameters", "uncertain", "resolved", "dominant", "not_measured"]]
     path = out / "error_budget.csv"
     atomic_csv(t.round(3), path, note + f"; mm; the miss (sim − field) = grain_size + model; 95 % half-widths "
                f"measurement, machine ({p.machine} fit), packing, soil; r = {radius_mm:g} mm")
@@ -320,10 +320,11 @@ def picture(t: pd.DataFrame, path: Path, preset: str) -> Path:
     width = 0.8 / len(parts)
     for ax, soil in zip(axes[0], soils):
         s = t[t.soil == soil].reset_index(drop=True)
+        lo, hi = s.grain_size_lo.to_numpy(float), s.grain_size_hi.to_numpy(float)
+        spans = {"grain_size": (lo, hi), "model": (s.miss - hi, s.miss - lo)}
         for j, (part, colour) in enumerate(parts):
             values = s[part].to_numpy(float)
-            lo, hi = s.grain_size_lo.to_numpy(float), s.grain_size_hi.to_numpy(float)
-            span = {"grain_size": (lo, hi), "model": (s.miss - hi, s.miss - lo)}.get(part)
+            span = spans.get(part)
             yerr = None if span is None else np.nan_to_num([values - span[0], span[1] - values])
             ax.bar(np.arange(len(s)) + (j - len(parts) / 2 + 0.5) * width, np.nan_to_num(values), width,
                    yerr=yerr, capsize=2, color=colour, label=part if soil == soils[0] else None,
