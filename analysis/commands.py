@@ -46,7 +46,7 @@ def cmd_params(args) -> int:
     return 0
 
 
-BENCH_CHECKS = ("--size-check", "--cones", "--probe", "--cone-transfer", "--check-deepest")
+BENCH_CHECKS = ("--size-check", "--cones", "--probe", "--cone-transfer", "--check-deepest", "--check-packings")
 
 
 def bench_checks_asked(args) -> list[str]:
@@ -185,7 +185,8 @@ def cmd_calibrate_bench(args) -> int:
                   "--cones": lambda: bench.cones(args.soil, args.cones, cfg, workers=cfg["workers"]),
                   "--probe": lambda: bench.probes(args.soil, args.probe, cfg),
                   "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds, cfg, workers=cfg["workers"]).round(2),
-                  "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg)).T}
+                  "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg)).T,
+                  "--check-packings": lambda: pd.DataFrame(bench.check_packings(args.soil, args.seeds, cfg)).T}
         try:
             table = checks[asked[0]]()
         except ConfigError as e:
@@ -283,7 +284,7 @@ def cmd_calibration_report(args) -> int:
     from analysis.soil import bench_calibration, calibration_report, soils_apart
     print(calibration_report.run().to_string(index=False))
     for path in [*bench_calibration.report(), *soils_apart.run(), soils_apart.filter_packing_run(),
-                 soils_apart.check_odds_run()]:
+                 soils_apart.check_odds_run(), soils_apart.shear_scatter_run()]:
         if path:
             print(f"wrote {path}")
     return 0

@@ -532,6 +532,31 @@ def test_the_deepest_point_lies_midway_in_made_up_planes_and_its_check_runs_it_o
         bench.check_deepest("sand", cfg, tmp_path)
 
 
+def test_the_packings_check_runs_no_cone_and_tells_the_mean_by_its_interval(tmp_path, monkeypatch):
+    post = {"normal_cohesion": 1.0e5, "friction_deg": 20.0, "pressed_adhesion": 0.05, "rolling_friction": 0.05,
+            "damping": 0.15}
+    (tmp_path / "sand-posterior.json").write_text(json.dumps({"mean": post}))
+    cfg = bench.load_config(soil="sand")
+    seen = []
+
+    def made_up(soil, seed, params, c, out_dir):      # c straddles sand's 12 kPa edge, φ sits well inside 26-36°
+        seen.append(seed)
+        return {"id": f"s{seed}", "seed": seed, **params, "c_kpa": 12.0 + (-1) ** seed * seed, "phi_deg": 31.0 + 0.1 * seed,
+                "collapse_deg": 45.0 + seed}
+    monkeypatch.setattr(bench, "evaluate", made_up)
+    monkeypatch.setattr(bench, "cone_check", lambda *a, **k: pytest.fail("the packings check runs no cone"))
+    monkeypatch.setattr(bench, "cone_columns", lambda *a, **k: pytest.fail("the packings check runs no cone"))
+    out = bench.check_packings("sand", [1, 2, 3, 4, 5, 6], cfg, tmp_path)
+    assert sorted(seen) == [1, 2, 3, 4, 5, 6] and "cone_kpa" not in out
+    assert out["c_kpa"]["mean_verdict"] == "undecided" and not out["c_kpa"]["every_packing_inside"]
+    assert out["phi_deg"]["mean_verdict"] == "inside" and out["collapse_deg"]["mean_verdict"] == "outside"
+    lo, hi = out["phi_deg"]["mean_interval"]
+    assert lo < out["phi_deg"]["mean"] < hi
+    assert (tmp_path / "sand-check-packings.csv").exists() and not (tmp_path / "sand-check.csv").exists()
+    with pytest.raises(ConfigError, match="three packings or more"):
+        bench.check_packings("sand", [1, 2], cfg, tmp_path)
+
+
 def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_path, monkeypatch, capsys):
     """`calibrate --bench --probe`: each chosen set's bench responses and cone on the calibration packing in
     <soil>-probes.csv, earlier probes kept and none rerun; a set naming fewer than the calibrated parameters, or a
@@ -941,9 +966,12 @@ def test_check_odds_fall_with_the_packings_scatter_and_the_number_of_packings_ch
     assert t.loc["wide", "all_inside"] > 0.999
     assert abs(t.loc["narrow", "one_inside"] - 0.6827) < 1e-3 and abs(t.loc["narrow", "all_inside"] - 0.6827 ** 3) < 1e-3
     assert soils_apart.check_odds({"narrow": (0, 2)}, {"narrow": 1.0}, 5).iloc[0].all_inside < t.loc["narrow", "all_inside"]
+    n3, n9 = (soils_apart.check_odds({"narrow": (0, 2)}, {"narrow": 1.0}, n).iloc[0] for n in (3, 9))
+    assert n3.interval_inside < n9.interval_inside < n9.one_inside      # more packings decide the mean more often
     table = pd.read_csv(soils_apart.check_odds_run(tmp_path), comment="#")
-    for soil, rows in table.groupby("soil"):
+    for (soil, n), rows in table.groupby(["soil", "packings"]):
         targets = rows[rows.response != "every target"]
         assert {"c_kpa", "phi_deg", "collapse_deg"} <= set(targets.response)
         every = rows[rows.response == "every target"].iloc[0]
         assert abs(every.all_inside - targets.all_inside.prod()) < 2e-3
+    assert set(table.packings) >= {3, 9}

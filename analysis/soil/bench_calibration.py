@@ -422,30 +422,67 @@ def weighted_correlation(table: pd.DataFrame, names: list[str], w) -> dict:
     return {a: {b: round(float(corr[i, j]), 3) for j, b in enumerate(names)} for i, a in enumerate(names)}
 
 
-def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_DIR, label: str = "check") -> dict:
+def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_DIR, label: str = "check",
+          cone: bool = True) -> dict:
     """The posterior mean's (post["mean"]) bench responses on each check packing against the targets' ranges; writes
     results/calibration/bench/<soil>-<label>.csv and .json. Returns per response: the mean over packings, their SD and
     whether every packing lies inside the target's range (strict: with packings as scattered as these runs' a set
     centred in every range passes on three packings about a fifth of the time, `every_packing_chance`) and
     whether their mean does; with a [cone_check], the cone index too, read at the bench's grains (the runs', `runs_cone`)
     whatever grains the filter's cone took: on every check packing when the filter fitted it (`cone_target`), else on
-    the cone's one packing (`cone_check`)."""
+    the cone's one packing (`cone_check`); `cone` False: the shear box and the collapse test alone. Each response
+    also carries its mean's 95 % interval over the packings and where that interval lies (`mean_verdict`)."""
     cfg = runs_cone(cfg or load_config(soil=soil))
     params = {k: float(v) for k, v in post["mean"].items()}
     rows = evaluate_all(soil, [(int(s), params) for s in cfg["check_seeds"]], cfg, out_dir,
-                        with_cone=bool(cfg.get("cone_target")))
+                        with_cone=cone and bool(cfg.get("cone_target")))
     table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
     atomic_csv(table, Path(out_dir) / f"{soil}-{label}.csv")
     out = {}
     for r, (lo, hi) in target_ranges(soil, cfg).items():
+        if r not in table:                  # the cone, where this check runs none
+            continue
         v = table[r].to_numpy(float)
         out[r] = {"mean": float(v.mean()), "sd": float(v.std(ddof=1)) if len(v) > 1 else float("nan"),
                   "target": [lo, hi], "every_packing_inside": bool(np.all((v >= lo) & (v <= hi))),
-                  "mean_inside": bool(lo <= v.mean() <= hi)}
-    if "cone_check" in cfg and "cone_kpa" not in out:
+                  "mean_inside": bool(lo <= v.mean() <= hi), **mean_verdict(v, lo, hi)}
+    if cone and "cone_check" in cfg and "cone_kpa" not in out:
         out["cone_kpa"] = cone_check(soil, params, cfg, out_dir)
     atomic_write(Path(out_dir) / f"{soil}-{label}.json", json.dumps(out, indent=1))
     return out
+
+
+def mean_verdict(values, lo: float, hi: float, level: float = 0.95) -> dict:
+    """Where the packings' mean of a response lies against its target's range, told by the mean's interval (Student
+    t over the packings): "inside" when the whole interval lies inside the range, "outside" when it misses the range,
+    "undecided" when it straddles an edge (the packings cannot tell the mean from the edge).
+
+    >>> v = mean_verdict([9.0, 10.0, 11.0, 10.0, 9.5, 10.5], 0.0, 12.0)
+    >>> v["mean_verdict"], [round(x, 2) for x in v["mean_interval"]]
+    ('inside', [9.26, 10.74])
+    >>> mean_verdict([11.0, 13.0, 12.0], 0.0, 12.0)["mean_verdict"], mean_verdict([14.0, 15.0, 16.0], 0.0, 12.0)["mean_verdict"]
+    ('undecided', 'outside')
+    """
+    from scipy.stats import t
+    v = np.asarray(values, float)
+    if len(v) < 2:
+        return {"mean_interval": [math.nan, math.nan], "mean_verdict": "undecided"}
+    half = t.ppf(0.5 + level / 2, len(v) - 1) * v.std(ddof=1) / math.sqrt(len(v))
+    a, b = float(v.mean() - half), float(v.mean() + half)
+    verdict = "inside" if lo <= a and b <= hi else "outside" if b < lo or a > hi else "undecided"
+    return {"mean_interval": [a, b], "mean_verdict": verdict}
+
+
+def check_packings(soil: str, seeds: list[int], cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> dict:
+    """`check` of the soil's posterior mean (<out_dir>/<soil>-posterior.json) on the packings `seeds`, the shear box
+    and the collapse test alone (their finished evaluations reused; the cone stays the check's, 30-40 min a packing at
+    the runs' grains), written as <soil>-check-packings.csv and .json: more packings pin the mean a check of three
+    leaves undecided."""
+    cfg = cfg or load_config(soil=soil)
+    if len(seeds) < 3:
+        raise ConfigError(f"--seeds = {','.join(map(str, seeds))}: allowed three packings or more (the mean's interval)")
+    return check(soil, {"mean": posterior_mean(soil, out_dir)}, {**cfg, "check_seeds": list(seeds)}, out_dir,
+                 "check-packings", cone=False)
 
 
 def runs_cone(cfg: dict) -> dict:

@@ -127,41 +127,105 @@ def filter_packing_run(out_dir: Path = BENCH_DIR) -> Path | None:
     return path
 
 
-def check_odds(ranges: dict[str, tuple], scatter: dict[str, float], packings: int) -> pd.DataFrame:
+def shear_scatter(sets: list[tuple[list[float], np.ndarray]]) -> pd.DataFrame:
+    """Where the shear box's packing scatter lies: per normal stress (kPa), the peak shear stress's SD over the packings
+    of one parameter set, pooled over `sets` (each its stresses and a packings × stresses array of peaks), with its
+    degrees of freedom and its share of the mean peak; sets with other stresses pool by stress.
+
+    >>> a = np.array([[30.0, 60.0, 120.0], [32.0, 64.0, 128.0], [28.0, 56.0, 112.0]])
+    >>> t = shear_scatter([([50, 100, 200], a)]).set_index("stress_kpa")
+    >>> t.loc[200.0, "tau_sd_kpa"], t.loc[50.0, "dof"], round(t.loc[100.0, "share"], 3)
+    (8.0, 2, 0.067)
+    """
+    rows = []
+    for stress in sorted({float(x) for stresses, _ in sets for x in stresses}):
+        cols = [(tau[:, list(map(float, stresses)).index(stress)]) for stresses, tau in sets if stress in map(float, stresses)]
+        ss = sum(((c - c.mean()) ** 2).sum() for c in cols)
+        dof = sum(len(c) - 1 for c in cols)
+        sd = float(np.sqrt(ss / dof)) if dof else np.nan
+        rows.append({"stress_kpa": stress, "sets": len(cols), "dof": dof, "tau_sd_kpa": sd,
+                     "share": sd / float(np.mean([c.mean() for c in cols]))})
+    return pd.DataFrame(rows)
+
+
+def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
+    """shear-scatter.csv: `shear_scatter` over every check in out_dir and its folders (`*-check.csv`,
+    `*-check-packings.csv`, `*-deepest-check.csv`) whose sets ran with ductile bonds (the model's) on three packings or
+    more, each set's peaks read from its evaluations' shear-box results; None when no check is there."""
+    from analysis.soil.bench_calibration import scene_result
+    out_dir = Path(out_dir)
+    sets = []
+    for f in sorted([*out_dir.glob("*-check*.csv"), *out_dir.glob("*/*-check*.csv")]):
+        table = pd.read_csv(f, comment="#")
+        if f.name.endswith("-check.csv") and (f.parent / f.name.replace("-check.", "-check-packings.")).exists():
+            continue                                       # the same set on more packings, counted there
+        for soil, rows in table.groupby("soil"):
+            data = [scene_result(folder, "shear") for folder in
+                    (next((p for p in (f.parent / soil / i, out_dir / soil / i) if p.is_dir()), None) for i in rows["id"])
+                    if folder is not None]
+            data = [d for d in data if d and d["overrides"].get("bond_fragile") == 0]     # ductile bonds, the model's
+            stresses = {tuple(t["stress_kpa"] for t in d["tests"]) for d in data}
+            if len(data) >= 3 and len(stresses) == 1:
+                sets.append((list(stresses.pop()), np.array([[t["tau_peak_kpa"] for t in d["tests"]] for d in data])))
+    if not sets:
+        return None
+    path = out_dir / "shear-scatter.csv"
+    atomic_csv(shear_scatter(sets).round(3), path,
+               f"./holes calibration-report; the shear box's peak shear stress per normal stress: its SD over the packings "
+               f"of one parameter set pooled over {len(sets)} checked sets (bench/ and its folders), its degrees of "
+               "freedom and its share of the mean peak")
+    return path
+
+
+ODDS_PACKINGS = (3, 6, 9, 12)           # the check sizes check-odds.csv tells the odds of
+
+
+def check_odds(ranges: dict[str, tuple], scatter: dict[str, float], packings: int, draws: int = 20_000) -> pd.DataFrame:
     """Per response: what a check on `packings` packings can tell of its target range (lo, hi) given the packings'
     scatter (SD at one parameter set): the range's half-width in packing SDs, the chance that one packing of a set
     whose mean over many packings is the range's middle lies inside (`one_inside`) and that every one of them does
-    (`all_inside`: the best odds of the per-packing check), and the standard error of the packings' mean.
+    (`all_inside`: the best odds of the per-packing check), that the 95 % t interval of their mean lies inside
+    (`interval_inside`: the mean verdict decided, `draws` seeded draws) and the standard error of the packings' mean.
 
     >>> t = check_odds({"c_kpa": (0, 12)}, {"c_kpa": 5.1}, 3).iloc[0]
     >>> round(t.half_width_sd, 2), round(t.one_inside, 2), round(t.all_inside, 2), round(t.mean_se, 2)
     (1.18, 0.76, 0.44, 2.94)
+    >>> round(t.interval_inside, 2), round(check_odds({"c_kpa": (0, 12)}, {"c_kpa": 5.1}, 9).iloc[0].interval_inside, 2)
+    (0.09, 0.74)
     """
+    rng = np.random.default_rng(0)
+    z = rng.standard_normal((draws, packings))
+    m, sd = z.mean(axis=1), z.std(axis=1, ddof=1)
+    half_t = stats.t.ppf(0.975, packings - 1) * sd / np.sqrt(packings)
     rows = []
     for r, (lo, hi) in ranges.items():
         half_sd = (hi - lo) / 2 / scatter[r]
         one = 2 * stats.norm.cdf(half_sd) - 1
         rows.append({"response": r, "lo": lo, "hi": hi, "packing_sd": scatter[r], "half_width_sd": half_sd,
-                     "one_inside": one, "all_inside": one ** packings, "mean_se": scatter[r] / np.sqrt(packings)})
+                     "one_inside": one, "all_inside": one ** packings,
+                     "interval_inside": float(np.mean(np.abs(m) + half_t <= half_sd)),
+                     "mean_se": scatter[r] / np.sqrt(packings)})
     return pd.DataFrame(rows)
 
 
 def check_odds_run(out_dir: Path = BENCH_DIR) -> Path:
     """check-odds.csv: check_odds for every soil's targets (the cone's where its filter fits it) with the
-    [packing_scatter] SDs and its [bench] check_seeds."""
+    [packing_scatter] SDs, on its [bench] check_seeds and on each of ODDS_PACKINGS packings."""
     tables = []
     for soil in SOILS:
         cfg = load_config(soil=soil)
-        odds = check_odds(target_ranges(soil, cfg), cfg["packing_scatter"], len(cfg["check_seeds"]))
-        every = pd.DataFrame([{"response": "every target", "one_inside": odds["one_inside"].prod(),
-                               "all_inside": odds["all_inside"].prod()}])
-        tables.append(pd.concat([odds, every]).assign(soil=soil, packings=len(cfg["check_seeds"])))
-    table = pd.concat(tables)[["soil", "response", "lo", "hi", "packing_sd", "half_width_sd", "packings",
-                               "one_inside", "all_inside", "mean_se"]]
+        for n in sorted({len(cfg["check_seeds"]), *ODDS_PACKINGS}):
+            odds = check_odds(target_ranges(soil, cfg), cfg["packing_scatter"], n)
+            every = pd.DataFrame([{"response": "every target", **{k: odds[k].prod() for k in
+                                                                   ("one_inside", "all_inside", "interval_inside")}}])
+            tables.append(pd.concat([odds, every]).assign(soil=soil, packings=n))
+    table = pd.concat(tables)[["soil", "packings", "response", "lo", "hi", "packing_sd", "half_width_sd",
+                               "one_inside", "all_inside", "interval_inside", "mean_se"]]
     path = Path(out_dir) / "check-odds.csv"
     atomic_csv(table.round(3), path,
-               "./holes calibration-report; per soil and target, the packings' SD ([packing_scatter]) against the "
-               "range: the chance one packing, and every check packing, of a set whose mean over many packings is the "
-               "range's middle lies inside, and the standard error of the check packings' mean; `every target`: all of "
-               "a soil's targets at once, the packings' scatter taken as independent between responses")
+               "./holes calibration-report; per soil, number of packings checked and target, the packings' SD "
+               "([packing_scatter]) against the range, for a set whose mean over many packings is the range's middle: "
+               "the chance one packing, and every checked packing, lies inside, that the 95 % t interval of the checked "
+               "packings' mean lies inside (the mean verdict decided), and that mean's standard error; `every target`: "
+               "all of a soil's targets at once, the packings' scatter taken as independent between responses")
     return path
