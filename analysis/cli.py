@@ -143,10 +143,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --bench: no calibration; the bench responses (and cone) of the set whose response planes "
                         "lie deepest inside every target (results/calibration/bench/deepest.csv) on the check packings "
                         "(results/calibration/bench/<soil>-deepest-check.csv, .json)")
-    p.add_argument("--check-packings", action="store_true",
-                   help="with --bench: no calibration; the posterior mean's shear box and collapse test on the packings "
-                        "of --seeds (three or more), the mean's 95 %% interval against each target "
-                        "(results/calibration/bench/<soil>-check-packings.csv, .json)")
+    p.add_argument("--check-packings", nargs="?", const="posterior", default=None, metavar="posterior|deepest",
+                   help="with --bench: no calibration; the shear box and collapse test of the posterior mean (or of the "
+                        "planes' deepest set) on the packings of --seeds (three or more), the mean's 95 %% interval "
+                        "against each target (results/calibration/bench/<soil>[-deepest]-check-packings.csv, .json)")
     p.add_argument("--cone-transfer", action="store_true",
                    help="with --bench: no calibration; the posterior mean's cone index at the filter's grains and at the "
                         "bench's (the main job's) on the packings of --seeds, --workers at a time "

@@ -186,7 +186,8 @@ def cmd_calibrate_bench(args) -> int:
                   "--probe": lambda: bench.probes(args.soil, args.probe, cfg),
                   "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds, cfg, workers=cfg["workers"]).round(2),
                   "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg)).T,
-                  "--check-packings": lambda: pd.DataFrame(bench.check_packings(args.soil, args.seeds, cfg)).T}
+                  "--check-packings": lambda: pd.DataFrame(
+                      bench.check_packings(args.soil, args.seeds, cfg, which=args.check_packings)).T}
         try:
             table = checks[asked[0]]()
         except ConfigError as e:

@@ -555,6 +555,12 @@ def test_the_packings_check_runs_no_cone_and_tells_the_mean_by_its_interval(tmp_
     assert (tmp_path / "sand-check-packings.csv").exists() and not (tmp_path / "sand-check.csv").exists()
     with pytest.raises(ConfigError, match="three packings or more"):
         bench.check_packings("sand", [1, 2], cfg, tmp_path)
+    with pytest.raises(ConfigError, match="allowed posterior or deepest"):
+        bench.check_packings("sand", [1, 2, 3], cfg, tmp_path, which="deep")
+    pd.DataFrame([{"soil": "sand", **{**post, "normal_cohesion": 1.6e5}}]).to_csv(tmp_path / "deepest.csv", index=False)
+    seen.clear()
+    bench.check_packings("sand", [4, 5, 6], cfg, tmp_path, which="deepest")
+    assert sorted(seen) == [4, 5, 6] and (tmp_path / "sand-deepest-check-packings.csv").exists()
 
 
 def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_path, monkeypatch, capsys):

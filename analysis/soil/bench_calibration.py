@@ -473,16 +473,24 @@ def mean_verdict(values, lo: float, hi: float, level: float = 0.95) -> dict:
     return {"mean_interval": [a, b], "mean_verdict": verdict}
 
 
-def check_packings(soil: str, seeds: list[int], cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> dict:
-    """`check` of the soil's posterior mean (<out_dir>/<soil>-posterior.json) on the packings `seeds`, the shear box
-    and the collapse test alone (their finished evaluations reused; the cone stays the check's, 30-40 min a packing at
-    the runs' grains), written as <soil>-check-packings.csv and .json: more packings pin the mean a check of three
-    leaves undecided."""
+CHECKED_SETS = ("posterior", "deepest")      # what --check-packings checks: the posterior mean, the planes' deepest set
+
+
+def check_packings(soil: str, seeds: list[int], cfg: dict | None = None, out_dir: Path = BENCH_DIR,
+                   which: str = "posterior") -> dict:
+    """`check` of the soil's posterior mean (<out_dir>/<soil>-posterior.json) or, `which` "deepest", of the set its
+    response planes put deepest inside every target (`deepest_set`), on the packings `seeds`, the shear box and the
+    collapse test alone (their finished evaluations reused; the cone stays the check's, 30-40 min a packing at the
+    runs' grains), written as <soil>-check-packings.csv (<soil>-deepest-check-packings.csv) and .json: more packings
+    pin the mean a check of three leaves undecided."""
     cfg = cfg or load_config(soil=soil)
+    if which not in CHECKED_SETS:
+        raise ConfigError(f"--check-packings = {which}: allowed {' or '.join(CHECKED_SETS)}")
     if len(seeds) < 3:
         raise ConfigError(f"--seeds = {','.join(map(str, seeds))}: allowed three packings or more (the mean's interval)")
-    return check(soil, {"mean": posterior_mean(soil, out_dir)}, {**cfg, "check_seeds": list(seeds)}, out_dir,
-                 "check-packings", cone=False)
+    params = posterior_mean(soil, out_dir) if which == "posterior" else deepest_set(soil, cfg, out_dir)
+    return check(soil, {"mean": params}, {**cfg, "check_seeds": list(seeds)}, out_dir,
+                 "check-packings" if which == "posterior" else "deepest-check-packings", cone=False)
 
 
 def runs_cone(cfg: dict) -> dict:
@@ -516,15 +524,20 @@ def every_packing_chance(ranges: dict, scatter: dict, packings: int, means: dict
 
 
 def check_deepest(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> dict:
-    """`check` of the soil's deepest point (<out_dir>/deepest.csv, `deepest_point`) on the check packings, written
-    as <soil>-deepest-check.csv and .json."""
+    """`check` of the soil's deepest point (`deepest_set`) on the check packings, written as <soil>-deepest-check.csv
+    and .json."""
+    cfg = cfg or load_config(soil=soil)
+    return check(soil, {"mean": deepest_set(soil, cfg, out_dir)}, cfg, out_dir, "deepest-check")
+
+
+def deepest_set(soil: str, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
+    """The calibrated parameters of the soil's deepest point (<out_dir>/deepest.csv, `deepest_point`)."""
     path = Path(out_dir) / "deepest.csv"
     table = pd.read_csv(path, comment="#").set_index("soil") if path.exists() else pd.DataFrame()
     if soil not in table.index:
         raise ConfigError(f"{path}: no deepest point of {soil}: its filter has not run (`./holes calibrate --soil "
                           f"{soil} --bench`)")
-    cfg = cfg or load_config(soil=soil)
-    return check(soil, {"mean": {n: float(table.loc[soil, n]) for n in cfg["bounds"]}}, cfg, out_dir, "deepest-check")
+    return {n: float(table.loc[soil, n]) for n in cfg["bounds"]}
 
 
 def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
