@@ -71,6 +71,52 @@ def run(out_dir: Path = BENCH_DIR) -> list[Path]:
     return paths
 
 
+def packing_effects(checks: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """Whether a packing seed reads a response the same way in every soil: per response and pair of soils (each a
+    check of one set on many packings, with `seed`), the correlation of the two soils' per-packing deviations from
+    their own mean over the seeds both ran, with its 95 % interval (Fisher z) and whether that leaves zero out. A
+    scatter that is the packing's (its grains' places) correlates; one that is each run's own does not.
+
+    >>> a = pd.DataFrame({"seed": range(1, 10), "c_kpa": [1.0, 2, 3, 4, 5, 6, 7, 8, 9]})
+    >>> b = pd.DataFrame({"seed": range(1, 10), "c_kpa": [2.0, 1, 4, 3, 6, 5, 8, 7, 9]})
+    >>> r = packing_effects({"clay": a, "sand": b}).iloc[0]
+    >>> r.packings, round(r.correlation, 2), bool(r.resolved)
+    (9, 0.93, True)
+    """
+    rows = []
+    for r in RESPONSES:
+        for s1, s2 in itertools.combinations(checks, 2):
+            if r not in checks[s1] or r not in checks[s2]:
+                continue
+            both = pd.merge(checks[s1][["seed", r]], checks[s2][["seed", r]], on="seed").dropna()
+            if len(both) < 4:
+                continue
+            x, y = both[f"{r}_x"], both[f"{r}_y"]
+            rho = float(np.corrcoef(x - x.mean(), y - y.mean())[0, 1])
+            half = stats.norm.ppf(0.975) / np.sqrt(len(both) - 3)
+            lo, hi = float(np.tanh(np.arctanh(rho) - half)), float(np.tanh(np.arctanh(rho) + half))
+            rows.append({"response": r, "soil_1": s1, "soil_2": s2, "packings": len(both), "correlation": rho,
+                         "lo": lo, "hi": hi, "resolved": bool(lo > 0 or hi < 0)})
+    return pd.DataFrame(rows)
+
+
+def packing_effects_run(out_dir: Path = BENCH_DIR) -> Path | None:
+    """packing-effects.csv: `packing_effects` over every soil's posterior checked on more packings
+    (`<soil>-check-packings.csv`); None when fewer than two soils have one."""
+    out_dir = Path(out_dir)
+    checks = {s: pd.read_csv(out_dir / f"{s}-check-packings.csv", comment="#") for s in SOILS
+              if (out_dir / f"{s}-check-packings.csv").exists()}
+    if len(checks) < 2:
+        return None
+    path = out_dir / "packing-effects.csv"
+    atomic_csv(packing_effects(checks).round(3), path,
+               "./holes calibration-report; per bench response and pair of soils, the correlation of their posteriors' "
+               "per-packing deviations over the packing seeds both checked (`<soil>-check-packings.csv`), its 95 % "
+               "interval (Fisher z) and whether it leaves zero out: a packing seed that reads a response high in every "
+               "soil correlates")
+    return path
+
+
 def filter_packing(checks: list[pd.DataFrame], seed: int) -> pd.DataFrame:
     """Per bench response, over posterior checks each calibrated on packing `seed`: the mean offset of that packing's
     reading from the other check packings' mean, its 95 % t interval, how many checks it pools and in how many the
