@@ -439,9 +439,10 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
     table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
     atomic_csv(table, Path(out_dir) / f"{soil}-{label}.csv")
     out = {}
-    for r, (lo, hi) in target_ranges(soil, cfg).items():
-        if r not in table:                  # the cone, where this check runs none
-            continue
+    ranges = target_ranges(soil, cfg)
+    if not cone:
+        ranges.pop("cone_kpa", None)
+    for r, (lo, hi) in ranges.items():
         v = table[r].to_numpy(float)
         out[r] = {"mean": float(v.mean()), "sd": float(v.std(ddof=1)) if len(v) > 1 else float("nan"),
                   "target": [lo, hi], "every_packing_inside": bool(np.all((v >= lo) & (v <= hi))),

@@ -16,7 +16,7 @@ from scipy import stats
 from analysis.core.io import atomic_csv
 from analysis.core.soil_config import SOILS
 from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, difference_interval, filter_seeds, load_config,
-                                             target_ranges)
+                                             scene_result, target_ranges)
 
 
 def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict]) -> pd.DataFrame:
@@ -92,7 +92,7 @@ def packing_effects(checks: dict[str, pd.DataFrame]) -> pd.DataFrame:
             if len(both) < 4:
                 continue
             x, y = both[f"{r}_x"], both[f"{r}_y"]
-            rho = float(np.corrcoef(x - x.mean(), y - y.mean())[0, 1])
+            rho = float(np.corrcoef(x, y)[0, 1])
             half = stats.norm.ppf(0.975) / np.sqrt(len(both) - 3)
             lo, hi = float(np.tanh(np.arctanh(rho) - half)), float(np.tanh(np.arctanh(rho) + half))
             rows.append({"response": r, "soil_1": s1, "soil_2": s2, "packings": len(both), "correlation": rho,
@@ -198,18 +198,15 @@ def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
     """shear-scatter.csv: `shear_scatter` over every check in out_dir and its folders (`*-check.csv`,
     `*-check-packings.csv`, `*-deepest-check.csv`) whose sets ran with ductile bonds (the model's) on three packings or
     more, each set's peaks read from its evaluations' shear-box results; None when no check is there."""
-    from analysis.soil.bench_calibration import scene_result
     out_dir = Path(out_dir)
     sets = []
     for f in sorted([*out_dir.glob("*-check*.csv"), *out_dir.glob("*/*-check*.csv")]):
-        table = pd.read_csv(f, comment="#")
         if f.name.endswith("-check.csv") and (f.parent / f.name.replace("-check.", "-check-packings.")).exists():
             continue                                       # the same set on more packings, counted there
-        for soil, rows in table.groupby("soil"):
-            data = [scene_result(folder, "shear") for folder in
-                    (next((p for p in (f.parent / soil / i, out_dir / soil / i) if p.is_dir()), None) for i in rows["id"])
-                    if folder is not None]
-            data = [d for d in data if d and d["overrides"].get("bond_fragile") == 0]     # ductile bonds, the model's
+        for soil, rows in pd.read_csv(f, comment="#").groupby("soil"):
+            found = (next((p for p in (f.parent / soil / i, out_dir / soil / i) if p.is_dir()), None) for i in rows["id"])
+            data = [d for d in (scene_result(p, "shear") for p in found if p is not None)
+                    if d and d["overrides"].get("bond_fragile") == 0]          # ductile bonds, the model's
             stresses = {tuple(t["stress_kpa"] for t in d["tests"]) for d in data}
             if len(data) >= 3 and len(stresses) == 1:
                 sets.append((list(stresses.pop()), np.array([[t["tau_peak_kpa"] for t in d["tests"]] for d in data])))
