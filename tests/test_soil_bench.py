@@ -561,6 +561,34 @@ def test_the_packings_check_runs_no_cone_and_tells_the_mean_by_its_interval(tmp_
     seen.clear()
     bench.check_packings("sand", [4, 5, 6], cfg, tmp_path, which="deepest")
     assert sorted(seen) == [4, 5, 6] and (tmp_path / "sand-deepest-check-packings.csv").exists()
+    moved = {**post, "normal_cohesion": 1.7e5}             # the planes took the check in and moved their deepest set
+    pd.DataFrame([{"soil": "sand", **moved}]).to_csv(tmp_path / "deepest.csv", index=False)
+    monkeypatch.setattr(bench, "evaluate", lambda soil, seed, params, c, out_dir: {
+        "id": f"s{seed}-{params['normal_cohesion']:.0f}", "seed": seed, **params, "c_kpa": 8.0 + seed, "phi_deg": 31.0,
+        "collapse_deg": 34.0})
+    out = bench.check_packings("sand", [4, 5, 6], cfg, tmp_path, which="deepest")
+    kept = pd.read_csv(tmp_path / "sand-deepest-check-packings.csv")
+    assert len(kept) == 6 and sorted(kept.normal_cohesion.unique()) == [1.6e5, 1.7e5]    # both sets' rows kept
+    assert out["c_kpa"]["mean"] == pytest.approx(13.0)                                   # the verdict: this set's
+    pd.DataFrame([{"id": "f1", "soil": "sand", **post, "c_kpa": 9.0}]).to_csv(tmp_path / "sand.csv", index=False)
+    table, source = bench.soil_evaluations("sand", tmp_path)
+    assert source == "sand.csv, sand-check-packings.csv, sand-deepest-check-packings.csv"
+    assert table["id"].is_unique and (table["normal_cohesion"] == 1.7e5).sum() == 3     # the planes see the moved set
+
+
+def test_the_planes_take_each_evaluation_once_with_its_three_packing_cone(tmp_path):
+    """`soil_evaluations`: the filter's rows, then its checks' (CHECK_TABLES); an evaluation both the three-packing
+    check and the check on more packings ran counts once, with the three-packing check's cone."""
+    base = {"soil": "clay", "normal_cohesion": 1e5, "friction_deg": 10.0, "c_kpa": 20.0, "phi_deg": 28.0,
+            "collapse_deg": 34.0}
+    pd.DataFrame([{**base, "id": "f1", "cone_kpa": 440.0}]).to_csv(tmp_path / "clay.csv", index=False)
+    pd.DataFrame([{**base, "id": f"s{i}", "cone_kpa": 450.0} for i in (1, 2, 3)]).to_csv(tmp_path / "clay-check.csv",
+                                                                                      index=False)
+    pd.DataFrame([{**base, "id": f"s{i}"} for i in range(1, 10)]).to_csv(tmp_path / "clay-check-packings.csv", index=False)
+    table, source = bench.soil_evaluations("clay", tmp_path)
+    assert source == "clay.csv, clay-check.csv, clay-check-packings.csv"
+    assert len(table) == 10 and table["cone_kpa"].notna().sum() == 4
+    assert bench.soil_evaluations("sand", tmp_path) is None
 
 
 def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_path, monkeypatch, capsys):
@@ -981,3 +1009,25 @@ def test_check_odds_fall_with_the_packings_scatter_and_the_number_of_packings_ch
         every = rows[rows.response == "every target"].iloc[0]
         assert abs(every.all_inside - targets.all_inside.prod()) < 2e-3
     assert set(table.packings) >= {3, 9}
+
+
+def test_the_box_scatter_counts_each_checked_set_once_and_tells_a_moved_deepest_set_from_the_last(tmp_path):
+    """`shear_scatter_run`: a set checked on three packings and again on more counts once, over its evaluations; a
+    deepest set's check file holding two sets (the planes moved it) counts two."""
+    from analysis.soil.soils_apart import shear_scatter_run
+    peaks = {1: [30.0, 60.0, 120.0], 2: [32.0, 64.0, 128.0], 3: [28.0, 56.0, 112.0], 4: [30.0, 60.0, 120.0]}
+
+    def evaluation(i, seed, bond):
+        folder = tmp_path / "clay" / i
+        folder.mkdir(parents=True)
+        (folder / "shear.json").write_text(json.dumps({"overrides": {"bond_fragile": 0}, "tests": [
+            {"stress_kpa": s, "tau_peak_kpa": t} for s, t in zip((50, 100, 200), peaks[seed])]}))
+        return {"id": i, "soil": "clay", "seed": seed, "normal_cohesion": bond, "friction_deg": 10.0}
+    posterior = [evaluation(f"p{s}", s, 1e5) for s in (1, 2, 3, 4)]
+    pd.DataFrame(posterior[:3]).to_csv(tmp_path / "clay-check.csv", index=False)
+    pd.DataFrame(posterior).to_csv(tmp_path / "clay-check-packings.csv", index=False)
+    deepest = [evaluation(f"d{s}-{b:.0f}", s, b) for b in (1.5e5, 1.6e5) for s in (1, 2, 3)]
+    pd.DataFrame(deepest).to_csv(tmp_path / "clay-deepest-check-packings.csv", index=False)
+    table = pd.read_csv(shear_scatter_run(tmp_path), comment="#").set_index("stress_kpa")
+    assert table.loc[200.0, "sets"] == 3 and table.loc[200.0, "dof"] == 3 + 2 + 2
+    assert table.loc[200.0, "tau_sd_kpa"] == pytest.approx(np.sqrt(3 * 128 / 7), abs=1e-3)   # 128 each set

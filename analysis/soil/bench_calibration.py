@@ -423,7 +423,7 @@ def weighted_correlation(table: pd.DataFrame, names: list[str], w) -> dict:
 
 
 def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_DIR, label: str = "check",
-          cone: bool = True) -> dict:
+          cone: bool = True, keep_earlier: bool = False) -> dict:
     """The posterior mean's (post["mean"]) bench responses on each check packing against the targets' ranges; writes
     results/calibration/bench/<soil>-<label>.csv and .json. Returns per response: the mean over packings, their SD and
     whether every packing lies inside the target's range (strict: with packings as scattered as these runs' a set
@@ -431,13 +431,16 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
     whether their mean does; with a [cone_check], the cone index too, read at the bench's grains (the runs', `runs_cone`)
     whatever grains the filter's cone took: on every check packing when the filter fitted it (`cone_target`), else on
     the cone's one packing (`cone_check`); `cone` False: the shear box and the collapse test alone. Each response
-    also carries its mean's 95 % interval over the packings and where that interval lies (`mean_verdict`)."""
+    also carries its mean's 95 % interval over the packings and where that interval lies (`mean_verdict`).
+    `keep_earlier`: the CSV keeps the rows of the sets checked before under the label (each row names its set; the
+    JSON judges this set alone): the planes' deepest set moves as the planes take in its checks."""
     cfg = runs_cone(cfg or load_config(soil=soil))
     params = {k: float(v) for k, v in post["mean"].items()}
     rows = evaluate_all(soil, [(int(s), params) for s in cfg["check_seeds"]], cfg, out_dir,
                         with_cone=cone and bool(cfg.get("cone_target")))
     table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
-    atomic_csv(table, Path(out_dir) / f"{soil}-{label}.csv")
+    path = Path(out_dir) / f"{soil}-{label}.csv"
+    atomic_csv(after_earlier(table, path) if keep_earlier else table, path)
     out = {}
     ranges = target_ranges(soil, cfg)
     if not cone:
@@ -490,8 +493,9 @@ def check_packings(soil: str, seeds: list[int], cfg: dict | None = None, out_dir
     if len(seeds) < 3:
         raise ConfigError(f"--seeds = {','.join(map(str, seeds))}: allowed three packings or more (the mean's interval)")
     params = posterior_mean(soil, out_dir) if which == "posterior" else deepest_set(soil, cfg, out_dir)
+    deepest = which == "deepest"
     return check(soil, {"mean": params}, {**cfg, "check_seeds": list(seeds)}, out_dir,
-                 "check-packings" if which == "posterior" else "deepest-check-packings", cone=False)
+                 "deepest-check-packings" if deepest else "check-packings", cone=False, keep_earlier=deepest)
 
 
 def runs_cone(cfg: dict) -> dict:
@@ -528,7 +532,7 @@ def check_deepest(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR)
     """`check` of the soil's deepest point (`deepest_set`) on the check packings, written as <soil>-deepest-check.csv
     and .json."""
     cfg = cfg or load_config(soil=soil)
-    return check(soil, {"mean": deepest_set(soil, cfg, out_dir)}, cfg, out_dir, "deepest-check")
+    return check(soil, {"mean": deepest_set(soil, cfg, out_dir)}, cfg, out_dir, "deepest-check", keep_earlier=True)
 
 
 def deepest_set(soil: str, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
@@ -1058,17 +1062,22 @@ def profile_plot(profile: pd.DataFrame, path: Path) -> Path:
     return path
 
 
+CHECK_TABLES = ("-check", "-check-packings", "-deepest-check-packings")    # the checks the planes take in
+
+
 def soil_evaluations(soil: str, out_dir: Path = BENCH_DIR) -> tuple[pd.DataFrame, str] | None:
-    """A soil's filter's and check's evaluations as one table, and where they come from: its finished filter
-    (<soil>.csv with <soil>-check.csv), or while its filter runs, the iterations it has finished
-    (<soil>-running.csv); None when it has neither."""
-    tables = [Path(out_dir) / f"{soil}{part}.csv" for part in ("", "-check")]
+    """A soil's filter's and checks' evaluations as one table, each evaluation once (its first row: the three-packing
+    check's, with its cone), and where they come from: its finished filter (<soil>.csv) with its posterior's checks on
+    three and more packings and its deepest sets' on more (CHECK_TABLES), or while its filter runs, the iterations it
+    has finished (<soil>-running.csv); None when it has neither."""
+    tables = [Path(out_dir) / f"{soil}{part}.csv" for part in ("", *CHECK_TABLES)]
     if not tables[0].exists():
         tables = [Path(out_dir) / f"{soil}-running.csv"]
     found = [t for t in tables if t.exists()]
     if not found:
         return None
-    return pd.concat([pd.read_csv(t, comment="#") for t in found]), " and ".join(t.name for t in found)
+    table = pd.concat([pd.read_csv(t, comment="#") for t in found])
+    return table.drop_duplicates("id") if "id" in table else table, ", ".join(t.name for t in found)
 
 
 def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> list[Path]:

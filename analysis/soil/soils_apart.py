@@ -194,17 +194,25 @@ def shear_scatter(sets: list[tuple[list[float], np.ndarray]]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+CHECKED_PARAMETERS = ("normal_cohesion", "friction_deg", "new_contact_cohesion", "pressed_adhesion", "rolling_friction",
+                      "damping")      # a checked set's parameters: what names it in a check's rows
+
+
 def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
-    """shear-scatter.csv: `shear_scatter` over every check in out_dir and its folders (`*-check.csv`,
-    `*-check-packings.csv`, `*-deepest-check.csv`) whose sets ran with ductile bonds (the model's) on three packings or
-    more, each set's peaks read from its evaluations' shear-box results; None when no check is there."""
+    """shear-scatter.csv: `shear_scatter` over every set checked in out_dir and its folders (`*-check*.csv`: a check
+    on three packings, on more, a deepest set's; each evaluation once, a set by its soil and parameters) that ran with
+    ductile bonds (the model's) on three packings or more, each set's peaks read from its evaluations' shear-box
+    results; None when no check is there."""
     out_dir = Path(out_dir)
     sets = []
-    for f in sorted([*out_dir.glob("*-check*.csv"), *out_dir.glob("*/*-check*.csv")]):
-        if f.name.endswith("-check.csv") and (f.parent / f.name.replace("-check.", "-check-packings.")).exists():
-            continue                                       # the same set on more packings, counted there
-        for soil, rows in pd.read_csv(f, comment="#").groupby("soil"):
-            found = (next((p for p in (f.parent / soil / i, out_dir / soil / i) if p.is_dir()), None) for i in rows["id"])
+    for folder in [out_dir, *sorted(p for p in out_dir.iterdir() if p.is_dir())]:
+        files = sorted(folder.glob("*-check*.csv"))
+        if not files:
+            continue
+        table = pd.concat([pd.read_csv(f, comment="#") for f in files]).drop_duplicates("id")
+        names = [n for n in table.columns if n in CHECKED_PARAMETERS]
+        for (soil, *_), rows in table.groupby(["soil", *names], dropna=False):
+            found = (next((p for p in (folder / soil / i, out_dir / soil / i) if p.is_dir()), None) for i in rows["id"])
             data = [d for d in (scene_result(p, "shear") for p in found if p is not None)
                     if d and d["overrides"].get("bond_fragile") == 0]          # ductile bonds, the model's
             stresses = {tuple(t["stress_kpa"] for t in d["tests"]) for d in data}
