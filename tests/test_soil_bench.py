@@ -1031,3 +1031,24 @@ def test_the_box_scatter_counts_each_checked_set_once_and_tells_a_moved_deepest_
     table = pd.read_csv(shear_scatter_run(tmp_path), comment="#").set_index("stress_kpa")
     assert table.loc[200.0, "sets"] == 3 and table.loc[200.0, "dof"] == 3 + 2 + 2
     assert table.loc[200.0, "tau_sd_kpa"] == pytest.approx(np.sqrt(3 * 128 / 7), abs=1e-3)   # 128 each set
+
+
+def test_the_cone_per_c_table_reads_each_checked_sets_box_and_its_kept_cones_at_the_runs_grains(tmp_path):
+    """`cone_per_c_run`: a set checked on three packings with its cone kept at the runs' grains on two gives one row,
+    the cone per kPa of c and the c that ratio asks for Table 2's floor; a set with no cone kept gives none."""
+    from analysis.soil.soils_apart import cone_per_c_run
+    params = {"normal_cohesion": 1.5e5, "friction_deg": 20.0, "pressed_adhesion": 0.05, "rolling_friction": 0.0,
+              "damping": 0.2}
+    rows = [{"id": f"s{s}", "soil": "sand", "seed": s, **params, "c_kpa": c} for s, c in ((1, 10.0), (2, 12.0), (3, 14.0))]
+    pd.DataFrame(rows).to_csv(tmp_path / "sand-deepest-check-packings.csv", index=False)
+    cfg = bench.runs_cone(bench.load_config(soil="sand"))
+    for seed, cone in ((1, 330e3), (2, 390e3)):
+        path = bench.cone_path("sand", params, cfg, tmp_path, seed)[0]
+        path.parent.mkdir(exist_ok=True)
+        path.write_text(json.dumps({"cone_index_pa": cone}))
+    (tmp_path / "earlier").mkdir()
+    pd.DataFrame([{**r, "normal_cohesion": 1e5} for r in rows]).to_csv(tmp_path / "earlier" / "sand-check.csv", index=False)
+    table = pd.read_csv(cone_per_c_run(tmp_path), comment="#")
+    assert len(table) == 1 and table.packings_c[0] == 3 and table.packings_cone[0] == 2
+    floor = bench.cone_range("sand", cfg)[0]
+    assert table.ratio[0] == pytest.approx(30.0) and table.c_for_cone_floor[0] == pytest.approx(floor / 30.0, abs=1e-3)

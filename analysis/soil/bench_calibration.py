@@ -652,19 +652,25 @@ def size_verdict(table: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, seed: int | None = None) -> dict:
-    """The parameter set's cone index on the cone calibration's bed (cfg's [cone_check]: its grains, periodic cell,
-    cone, speed and packing, or packing `seed`) against Table 2's: inside when within the tolerance, one such bed's
-    scatter. With a [cone_check] transfer, `mean` is the cone's reading times it (what the runs' grains read, where
-    that ratio was measured) and `raw` the reading. The cone's summary is kept as
-    <out_dir>/cone/<soil>-s<seed>-<hash>.json and reused."""
+def cone_path(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, seed: int | None = None) -> tuple[Path, dict]:
+    """Where `cone_check` keeps the set's cone summary on packing `seed` (cfg's [cone_check] packing when None), named
+    by the parameters, the calibration's fixed ones and the cone's bed, and that [cone_check] with its seed."""
     c = dict(cfg["cone_check"])
     if seed is not None:
         c["seed"] = int(seed)
     key = {"params": dict(sorted(rounded(params).items())), "fixed": dict(sorted(cfg.get("fixed", {}).items())),
            "cone": {k: v for k, v in sorted(c.items()) if k not in ("tolerance", "transfer")}}
     digest = hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]
-    path = Path(out_dir) / "cone" / f"{soil}-s{c['seed']}-{digest}.json"
+    return Path(out_dir) / "cone" / f"{soil}-s{c['seed']}-{digest}.json", c
+
+
+def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, seed: int | None = None) -> dict:
+    """The parameter set's cone index on the cone calibration's bed (cfg's [cone_check]: its grains, periodic cell,
+    cone, speed and packing, or packing `seed`) against Table 2's: inside when within the tolerance, one such bed's
+    scatter. With a [cone_check] transfer, `mean` is the cone's reading times it (what the runs' grains read, where
+    that ratio was measured) and `raw` the reading. The cone's summary is kept as
+    <out_dir>/cone/<soil>-s<seed>-<hash>.json and reused."""
+    path, c = cone_path(soil, params, cfg, out_dir, seed)
     if path.exists():
         summary = json.loads(path.read_text())
     else:

@@ -15,8 +15,9 @@ from scipy import stats
 
 from analysis.core.io import atomic_csv
 from analysis.core.soil_config import SOILS
-from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, difference_interval, filter_seeds, load_config,
-                                             scene_result, target_ranges)
+from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, cone_path, cone_range, difference_interval,
+                                             filter_seeds, load_config, mean_verdict, runs_cone, scene_result,
+                                             target_ranges)
 
 
 def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict]) -> pd.DataFrame:
@@ -194,6 +195,22 @@ def shear_scatter(sets: list[tuple[list[float], np.ndarray]]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def checked_sets(out_dir: Path = BENCH_DIR) -> list[tuple[Path, str, dict, pd.DataFrame]]:
+    """Every parameter set checked in out_dir and its folders (`*-check*.csv`: on three packings, on more, a deepest
+    set's), each evaluation once: its folder, soil, parameters (CHECKED_PARAMETERS it names) and its rows."""
+    found = []
+    for folder in [out_dir, *sorted(p for p in out_dir.iterdir() if p.is_dir())]:
+        files = sorted(folder.glob("*-check*.csv"))
+        if not files:
+            continue
+        table = pd.concat([pd.read_csv(f, comment="#") for f in files]).drop_duplicates("id")
+        names = [n for n in table.columns if n in CHECKED_PARAMETERS]
+        for (soil, *_), rows in table.groupby(["soil", *names], dropna=False):
+            params = {n: float(rows[n].iloc[0]) for n in names if pd.notna(rows[n].iloc[0])}
+            found.append((folder, soil, params, rows))
+    return found
+
+
 CHECKED_PARAMETERS = ("normal_cohesion", "friction_deg", "new_contact_cohesion", "pressed_adhesion", "rolling_friction",
                       "damping")      # a checked set's parameters: what names it in a check's rows
 
@@ -205,19 +222,13 @@ def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
     results; None when no check is there."""
     out_dir = Path(out_dir)
     sets = []
-    for folder in [out_dir, *sorted(p for p in out_dir.iterdir() if p.is_dir())]:
-        files = sorted(folder.glob("*-check*.csv"))
-        if not files:
-            continue
-        table = pd.concat([pd.read_csv(f, comment="#") for f in files]).drop_duplicates("id")
-        names = [n for n in table.columns if n in CHECKED_PARAMETERS]
-        for (soil, *_), rows in table.groupby(["soil", *names], dropna=False):
-            found = (next((p for p in (folder / soil / i, out_dir / soil / i) if p.is_dir()), None) for i in rows["id"])
-            data = [d for d in (scene_result(p, "shear") for p in found if p is not None)
-                    if d and d["overrides"].get("bond_fragile") == 0]          # ductile bonds, the model's
-            stresses = {tuple(t["stress_kpa"] for t in d["tests"]) for d in data}
-            if len(data) >= 3 and len(stresses) == 1:
-                sets.append((list(stresses.pop()), np.array([[t["tau_peak_kpa"] for t in d["tests"]] for d in data])))
+    for folder, soil, _, rows in checked_sets(out_dir):
+        found = (next((p for p in (folder / soil / i, out_dir / soil / i) if p.is_dir()), None) for i in rows["id"])
+        data = [d for d in (scene_result(p, "shear") for p in found if p is not None)
+                if d and d["overrides"].get("bond_fragile") == 0]          # ductile bonds, the model's
+        stresses = {tuple(t["stress_kpa"] for t in d["tests"]) for d in data}
+        if len(data) >= 3 and len(stresses) == 1:
+            sets.append((list(stresses.pop()), np.array([[t["tau_peak_kpa"] for t in d["tests"]] for d in data])))
     if not sets:
         return None
     path = out_dir / "shear-scatter.csv"
@@ -225,6 +236,53 @@ def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
                f"./holes calibration-report; the shear box's peak shear stress per normal stress: its SD over the packings "
                f"of one parameter set pooled over {len(sets)} checked sets (bench/ and its folders), its degrees of "
                "freedom and its share of the mean peak")
+    return path
+
+
+def cone_per_c(sets: list[dict]) -> pd.DataFrame:
+    """How the cone index follows the shear box's cohesion: per checked set (`soil`, its box's c per packing `c`, its
+    cone at the runs' grains per packing `cone`, the soil's cone floor `cone_lo`), each mean with its 95 % t interval,
+    their ratio, and the c that ratio asks for the cone to reach its floor. A cone that reads c times a bearing factor
+    ties c's range to the cone's: where that c lies over c's range, no set of this kind meets both.
+
+    >>> t = cone_per_c([{"soil": "sand", "c": [10.0, 12.0, 14.0], "cone": [350.0, 370.0, 390.0], "cone_lo": 357.0}])
+    >>> r = t.iloc[0]; round(r.c_mean, 1), round(r.cone_mean), round(r.ratio, 1), round(r.c_for_cone_floor, 1)
+    (12.0, 370, 30.8, 11.6)
+    """
+    rows = []
+    for one in sets:
+        c, cone = np.asarray(one["c"], float), np.asarray(one["cone"], float)
+        (c_lo, c_hi), (cone_a, cone_b) = (mean_verdict(v, -np.inf, np.inf)["mean_interval"] for v in (c, cone))
+        ratio = cone.mean() / c.mean()
+        rows.append({**{k: v for k, v in one.items() if k not in ("c", "cone")}, "packings_c": len(c),
+                     "c_mean": c.mean(), "c_lo": c_lo, "c_hi": c_hi, "packings_cone": len(cone),
+                     "cone_mean": cone.mean(), "cone_mean_lo": cone_a, "cone_mean_hi": cone_b, "ratio": ratio,
+                     "c_for_cone_floor": one["cone_lo"] / ratio})
+    return pd.DataFrame(rows)
+
+
+def cone_per_c_run(out_dir: Path = BENCH_DIR) -> Path | None:
+    """cone-per-c.csv: `cone_per_c` over every set checked in out_dir and its folders (`checked_sets`) with its box on
+    three packings or more and its cone at the runs' grains (`runs_cone`, kept in <out_dir>/cone/) on one or more;
+    None when no set has both."""
+    out_dir = Path(out_dir)
+    sets = []
+    for folder, soil, params, rows in checked_sets(out_dir):
+        cfg = runs_cone(load_config(soil=soil))
+        c = rows["c_kpa"].dropna().to_numpy(float)
+        paths = [cone_path(soil, params, cfg, out_dir, int(seed))[0] for seed in sorted(rows["seed"].unique())]
+        cone = [json.loads(p.read_text())["cone_index_pa"] / 1000 for p in paths if p.exists()]
+        if len(c) >= 3 and cone:
+            sets.append({"soil": soil, "folder": folder.relative_to(out_dir).as_posix() or ".",
+                         **{k: round(v, 5) for k, v in params.items()}, "cone_lo": cone_range(soil, cfg)[0],
+                         "c": c, "cone": cone})
+    if not sets:
+        return None
+    path = out_dir / "cone-per-c.csv"
+    atomic_csv(cone_per_c(sets).round(3), path,
+               "./holes calibration-report; per checked set (bench/ and its folders): the box's c over its packings and "
+               "the cone at the runs' grains over those it ran on, each mean with its 95 % t interval, the cone per kPa "
+               "of c and the c that ratio asks for the cone to reach Table 2's floor (cone_lo)")
     return path
 
 
