@@ -1052,3 +1052,23 @@ def test_the_cone_per_c_table_reads_each_checked_sets_box_and_its_kept_cones_at_
     assert len(table) == 1 and table.packings_c[0] == 3 and table.packings_cone[0] == 2
     floor = bench.cone_range("sand", cfg)[0]
     assert table.ratio[0] == pytest.approx(30.0) and table.c_for_cone_floor[0] == pytest.approx(floor / 30.0, abs=1e-3)
+
+
+def test_a_check_reads_a_packing_whose_scene_stopped_as_failed_and_calls_no_response_inside(tmp_path, monkeypatch):
+    """`check`: a packing whose collapse still flowed (its evaluation failed, every response NaN) is counted in
+    `failed_packings`; the others give the mean and its interval, and no verdict with a failed packing is "inside"."""
+    post = {"normal_cohesion": 1.0e5, "friction_deg": 20.0, "pressed_adhesion": 0.05, "rolling_friction": 0.05,
+            "damping": 0.15}
+    (tmp_path / "sand-posterior.json").write_text(json.dumps({"mean": post}))
+
+    def made_up(soil, seed, params, c, out_dir):
+        if seed == 4:
+            return {"id": f"s{seed}", "seed": seed, **params, "c_kpa": math.nan, "phi_deg": math.nan,
+                    "collapse_deg": math.nan, "failed": "scripts/collapse.py: collapse stopped"}
+        return {"id": f"s{seed}", "seed": seed, **params, "c_kpa": 6.0 + 0.1 * seed, "phi_deg": 31.0, "collapse_deg": 33.0}
+    monkeypatch.setattr(bench, "evaluate", made_up)
+    out = bench.check_packings("sand", [1, 2, 3, 4], bench.load_config(soil="sand"), tmp_path)
+    c = out["c_kpa"]
+    assert c["failed_packings"] == 1 and c["mean"] == pytest.approx(6.2) and math.isfinite(c["mean_interval"][0])
+    assert c["mean_verdict"] == "undecided" and not c["every_packing_inside"]
+    assert json.loads((tmp_path / "sand-check-packings.json").read_text())["collapse_deg"]["failed_packings"] == 1

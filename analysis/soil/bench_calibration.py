@@ -431,7 +431,9 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
     whether their mean does; with a [cone_check], the cone index too, read at the bench's grains (the runs', `runs_cone`)
     whatever grains the filter's cone took: on every check packing when the filter fitted it (`cone_target`), else on
     the cone's one packing (`cone_check`); `cone` False: the shear box and the collapse test alone. Each response
-    also carries its mean's 95 % interval over the packings and where that interval lies (`mean_verdict`).
+    also carries its mean's 95 % interval over the packings and where that interval lies (`mean_verdict`), over the
+    packings whose test ran to its end: `failed_packings` counts those its scene stopped (a heap still flowing), and
+    with any of them no verdict is "inside".
     `keep_earlier`: the CSV keeps the rows of the sets checked before under the label (each row names its set; the
     JSON judges this set alone): the planes' deepest set moves as the planes take in its checks."""
     cfg = runs_cone(cfg or load_config(soil=soil))
@@ -447,9 +449,13 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
         ranges.pop("cone_kpa", None)
     for r, (lo, hi) in ranges.items():
         v = table[r].to_numpy(float)
-        out[r] = {"mean": float(v.mean()), "sd": float(v.std(ddof=1)) if len(v) > 1 else float("nan"),
-                  "target": [lo, hi], "every_packing_inside": bool(np.all((v >= lo) & (v <= hi))),
-                  "mean_inside": bool(lo <= v.mean() <= hi), **mean_verdict(v, lo, hi)}
+        failed, v = int(np.isnan(v).sum()), v[np.isfinite(v)]      # a test its scene stopped reads nothing
+        verdict = mean_verdict(v, lo, hi)
+        if failed and verdict["mean_verdict"] == "inside":        # the packings it failed on may read otherwise
+            verdict["mean_verdict"] = "undecided"
+        out[r] = {"mean": float(v.mean()) if len(v) else math.nan, "sd": float(v.std(ddof=1)) if len(v) > 1 else math.nan,
+                  "target": [lo, hi], "every_packing_inside": bool(not failed and np.all((v >= lo) & (v <= hi))),
+                  "mean_inside": bool(len(v) and lo <= v.mean() <= hi), "failed_packings": failed, **verdict}
     if cone and "cone_check" in cfg and "cone_kpa" not in out:
         out["cone_kpa"] = cone_check(soil, params, cfg, out_dir)
     atomic_write(Path(out_dir) / f"{soil}-{label}.json", json.dumps(out, indent=1))
