@@ -136,6 +136,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --bench: no calibration; the cone check of these finished evaluations of the soil "
                         "(ids of results/calibration/bench/<soil>/, comma-separated), --workers at a time: the cone "
                         "across the bench's region (results/calibration/bench/<soil>-cones.csv)")
+    p.add_argument("--runs-grains", action="store_true",
+                   help="with --cones: the cone at the runs' grains, as the checks read it, instead of the filter's "
+                        "(results/calibration/bench/<soil>-cones-runs-grains.csv)")
     p.add_argument("--size-check", action="store_true",
                    help="with --bench: no calibration; the posterior mean's bench responses on the check packings in "
                         "the configured box and one grown by half (results/calibration/bench/<soil>-size.csv)")

@@ -176,13 +176,17 @@ def cmd_calibrate_bench(args) -> int:
         print(f"calibrate: {e}", file=sys.stderr)
         return 2
     asked = bench_checks_asked(args)
+    if getattr(args, "runs_grains", False) and asked != ["--cones"]:
+        print("calibrate: --runs-grains: allowed only with --cones (the cone of chosen evaluations)", file=sys.stderr)
+        return 2
     if len(asked) > 1:
         print(f"calibrate: {', '.join(BENCH_CHECKS[:-1])} and {BENCH_CHECKS[-1]}: allowed one of them", file=sys.stderr)
         return 2
     if asked:
         import pandas as pd
         checks = {"--size-check": lambda: bench.size_check(args.soil, cfg).round(2),
-                  "--cones": lambda: bench.cones(args.soil, args.cones, cfg, workers=cfg["workers"]),
+                  "--cones": lambda: bench.cones(args.soil, args.cones, cfg, workers=cfg["workers"],
+                                                runs_grains=args.runs_grains),
                   "--probe": lambda: bench.probes(args.soil, args.probe, cfg),
                   "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds, cfg, workers=cfg["workers"]).round(2),
                   "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg)).T,

@@ -407,6 +407,9 @@ def test_the_cone_runs_on_chosen_evaluations_and_keeps_every_one(tmp_path, monke
     assert saved.cone_kpa.iloc[0] == pytest.approx(json.loads(kept[0].read_text())["normal_cohesion"] / 500, rel=1e-3)
     with pytest.raises(ConfigError, match="s1-0000000000"):
         bench.cones("clay", ["s1-0000000000"], cfg, tmp_path)
+    bench.cones("clay", ids[:1], cfg, tmp_path, workers=1, runs_grains=True)     # the checks' cone: its own summary
+    assert len(runs) == 3 and runs[-1][runs[-1].index("--resolution") + 1] == cfg["resolution"]
+    assert len(pd.read_csv(tmp_path / "clay-cones-runs-grains.csv", comment="#")) == 1
 
 
 def test_the_size_check_runs_the_posterior_in_both_boxes_and_judges_each_response_by_the_packing_scatter(tmp_path,
@@ -487,6 +490,8 @@ def test_the_cone_transfer_reads_the_posterior_cone_at_both_grain_sizes_on_each_
     assert len(ran) == 4
     saved = pd.read_csv(tmp_path / "loam-cone-transfer.csv", comment="#")
     assert list(saved.seed) == [2] and saved.cone_runs_kpa.iloc[0] == pytest.approx(402.0)
+    assert main(["calibrate", "--soil", "loam", "--bench", "--runs-grains"]) == 2
+    assert "--runs-grains: allowed only with --cones" in capsys.readouterr().err
     assert main(["calibrate", "--soil", "loam", "--cone-transfer"]) == 2
     assert "--cone-transfer: allowed only with --bench" in capsys.readouterr().err
 
