@@ -409,6 +409,7 @@ def test_the_cone_runs_on_chosen_evaluations_and_keeps_every_one(tmp_path, monke
         bench.cones("clay", ["s1-0000000000"], cfg, tmp_path)
     bench.cones("clay", ids[:1], cfg, tmp_path, workers=1, runs_grains=True)     # the checks' cone: its own summary
     assert len(runs) == 3 and runs[-1][runs[-1].index("--resolution") + 1] == cfg["resolution"]
+    assert {r[r.index("--seed") + 1] for r in runs} == {"1"}                  # each evaluation's own packing
     assert len(pd.read_csv(tmp_path / "clay-cones-runs-grains.csv", comment="#")) == 1
 
 

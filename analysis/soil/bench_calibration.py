@@ -718,10 +718,10 @@ def after_earlier(table: pd.DataFrame, path: Path) -> pd.DataFrame:
 
 def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, workers: int = 2,
           runs_grains: bool = False) -> pd.DataFrame:
-    """The cone check of finished evaluations (`ids`, folders of <out_dir>/<soil>/), `workers` at a time, beside their
-    bench responses: where in the bench's region the cone meets Table 2. Writes <out_dir>/<soil>-cones.csv (every
-    evaluation whose cone has run, these and earlier ones); `runs_grains`: the cone at the runs' grains, as a check
-    reads it (`runs_cone`), in <out_dir>/<soil>-cones-runs-grains.csv."""
+    """The cone check of finished evaluations (`ids`, folders of <out_dir>/<soil>/), each on its own packing, `workers`
+    at a time, beside their bench responses: where in the bench's region the cone meets Table 2. Writes
+    <out_dir>/<soil>-cones.csv (every evaluation whose cone has run, these and earlier ones); `runs_grains`: the cone
+    at the runs' grains, as a check reads it (`runs_cone`), in <out_dir>/<soil>-cones-runs-grains.csv."""
     if "cone_check" not in cfg:
         raise ConfigError(f"{CONFIG}: no [cone_check] section: the cone's bed and cone are not given")
     cfg = runs_cone(cfg) if runs_grains else cfg
@@ -738,7 +738,7 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
     def one(row):
         ran = [n for n in names if n in row]        # the parameters the evaluation set (the others: the soil's)
         return {**{k: row[k] for k in ("id", *ran, *RESPONSES)},
-                **cone_columns(soil, {n: row[n] for n in ran}, cfg, out_dir)}
+                **cone_columns(soil, {n: row[n] for n in ran}, cfg, out_dir, int(row["seed"]))}
     with ThreadPoolExecutor(max_workers=workers) as pool:
         table = pd.DataFrame(list(pool.map(one, rows)))
     path = Path(out_dir) / f"{soil}-cones{'-runs-grains' if runs_grains else ''}.csv"
