@@ -176,7 +176,7 @@ def cmd_calibrate_bench(args) -> int:
         print(f"calibrate: {e}", file=sys.stderr)
         return 2
     asked = bench_checks_asked(args)
-    if getattr(args, "runs_grains", False) and asked != ["--cones"]:
+    if args.runs_grains and asked != ["--cones"]:
         print("calibrate: --runs-grains: allowed only with --cones (the cone of chosen evaluations)", file=sys.stderr)
         return 2
     if len(asked) > 1:

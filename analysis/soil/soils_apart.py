@@ -195,6 +195,10 @@ def shear_scatter(sets: list[tuple[list[float], np.ndarray]]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+CHECKED_PARAMETERS = ("normal_cohesion", "friction_deg", "new_contact_cohesion", "pressed_adhesion", "rolling_friction",
+                      "damping")      # a checked set's parameters: what names it in a check's rows
+
+
 def checked_sets(out_dir: Path = BENCH_DIR) -> list[tuple[Path, str, dict, pd.DataFrame]]:
     """Every parameter set checked in out_dir and its folders (`*-check*.csv`: on three packings, on more, a deepest
     set's), each evaluation once: its folder, soil, parameters (CHECKED_PARAMETERS it names) and its rows."""
@@ -209,10 +213,6 @@ def checked_sets(out_dir: Path = BENCH_DIR) -> list[tuple[Path, str, dict, pd.Da
             params = {n: float(rows[n].iloc[0]) for n in names if pd.notna(rows[n].iloc[0])}
             found.append((folder, soil, params, rows))
     return found
-
-
-CHECKED_PARAMETERS = ("normal_cohesion", "friction_deg", "new_contact_cohesion", "pressed_adhesion", "rolling_friction",
-                      "damping")      # a checked set's parameters: what names it in a check's rows
 
 
 def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
@@ -267,8 +267,9 @@ def cone_per_c_run(out_dir: Path = BENCH_DIR) -> Path | None:
     None when no set has both."""
     out_dir = Path(out_dir)
     sets = []
+    cfgs = {s: runs_cone(load_config(soil=s)) for s in SOILS}      # each soil's cone as the checks read it
     for folder, soil, params, rows in checked_sets(out_dir):
-        cfg = runs_cone(load_config(soil=soil))
+        cfg = cfgs[soil]
         c = rows["c_kpa"].dropna().to_numpy(float)
         paths = [cone_path(soil, params, cfg, out_dir, int(seed))[0] for seed in sorted(rows["seed"].unique())]
         cone = [json.loads(p.read_text())["cone_index_pa"] / 1000 for p in paths if p.exists()]
