@@ -46,9 +46,10 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     writes the damage map (`damage_map`)."""
     cone_scale = CONE_FIELDS["cone_scale"].check("cone.cone_scale", cone_scale)
     speed = CONE_FIELDS["speed"].check("cone.speed", speed)
-    soil = soil_with(load_soil(soil_name), overrides or {})
-    if cohesion is not None:
+    soil = load_soil(soil_name)
+    if cohesion is not None:          # the bond pair, then the tested parameters: a shear bond of their own wins
         soil = dataclasses.replace(soil, normal_cohesion=cohesion, shear_cohesion=cohesion)
+    soil = soil_with(soil, overrides or {})
     from scripts.beds import load_meta
     meta = load_meta(bed_path)
     L, W, D = meta["size_m"]
@@ -139,7 +140,9 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     out_dir = out_dir or CONE_DIR
     from analysis.soil.calibrate import cone_result_name
     name = cone_result_name(meta["key"], cone_scale, speed, soil.normal_cohesion)
-    tested = {k: v for k, v in (overrides or {}).items() if k not in ("normal_cohesion", "shear_cohesion")}
+    paired = soil.shear_cohesion == soil.normal_cohesion     # coh<…> names the bond; a shear bond of its own is tested
+    tested = {k: v for k, v in (overrides or {}).items()
+              if k != "normal_cohesion" and not (paired and k == "shear_cohesion")}
     if tested:                         # a law tested on the configured bed: named apart from the configured soil's runs
         import hashlib
         name += "-t" + hashlib.sha1(json.dumps(sorted(tested.items())).encode()).hexdigest()[:8]
@@ -192,7 +195,7 @@ def arguments():
     p.add_argument("--cone-speed", type=option("--cone-speed", CONE_FIELDS["speed"]), default=0.3,
                    help="the cone's penetration speed, m/s (default 0.3)")
     p.add_argument("--cohesion", type=option("--cohesion", SOIL_FIELDS["normal_cohesion"]),
-                   help="Pa; overrides the soil config's normal and shear cohesion")
+                   help="Pa; overrides the soil config's normal and shear cohesion (a --test-set of either wins)")
     p.add_argument("--depth", type=option("--depth", CONE_DEPTH), default=CI_DEPTH * 1000,
                    help="deepest base depth, mm (field: 150)")
     p.add_argument("--out", type=folder("--out"), help="where the resistance CSV goes (default results/cache/cone)")
