@@ -138,11 +138,9 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
                "dt": O.dt, "wall_s": time.time() - wall0, "threads": threads,
                "particle_steps_per_s": n_particles * O.iter / (time.time() - wall0)}
     out_dir = out_dir or CONE_DIR
-    from analysis.soil.calibrate import cone_result_name
+    from analysis.soil.calibrate import cone_result_name, cone_tested
     name = cone_result_name(meta["key"], cone_scale, speed, soil.normal_cohesion)
-    paired = soil.shear_cohesion == soil.normal_cohesion     # coh<…> names the bond; a shear bond of its own is tested
-    tested = {k: v for k, v in (overrides or {}).items()
-              if k != "normal_cohesion" and not (paired and k == "shear_cohesion")}
+    tested = cone_tested(overrides or {}, soil.normal_cohesion, soil.shear_cohesion)
     if tested:                         # a law tested on the configured bed: named apart from the configured soil's runs
         import hashlib
         name += "-t" + hashlib.sha1(json.dumps(sorted(tested.items())).encode()).hexdigest()[:8]

@@ -72,6 +72,18 @@ def cone_result_name(bed: str, cone_scale: float, speed: float, cohesion: float)
     return f"{bed}-c{cone_scale:g}-v{speed:g}-coh{cohesion:g}"
 
 
+def cone_tested(overrides: dict, normal: float, shear: float) -> dict:
+    """The tested contact parameters that name a cone run apart from the configured soil's (scripts/cone.py): all
+    but the bond its name already carries (coh<normal>), and the shear bond too where it equals the normal one.
+
+    >>> cone_tested({"normal_cohesion": 1e5, "shear_cohesion": 1e5, "friction_deg": 20.0}, 1e5, 1e5)
+    {'friction_deg': 20.0}
+    >>> cone_tested({"normal_cohesion": 4e5, "shear_cohesion": 1e5}, 4e5, 1e5)
+    {'shear_cohesion': 100000.0}
+    """
+    return {k: v for k, v in overrides.items() if k != "normal_cohesion" and not (k == "shear_cohesion" and shear == normal)}
+
+
 def cone_run(bed: str, match) -> tuple[Path, dict] | None:
     """The first finished cone run on `bed` in results/cache/cone/ whose summary satisfies `match`: (its summary's
     path, the summary), or None."""
