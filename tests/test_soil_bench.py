@@ -64,7 +64,7 @@ def test_a_bad_cone_check_is_refused(tmp_path, line, match):
 
 def test_a_soils_own_prior_narrows_the_common_one_and_is_checked(tmp_path):
     common, sand = bench.load_config()["bounds"], bench.load_config(soil="sand")["bounds"]
-    assert set(common) <= set(sand) and set(sand) - set(common) <= {"shear_cohesion"}   # its own: a contact parameter
+    assert set(sand) == set(common)
     assert all(common[k][0] <= sand[k][0] < sand[k][1] <= common[k][1] for k in common)
     assert sand != common
     for extra, match in [("[soil_bounds.peat]\nfriction_deg = [10.0, 20.0]", "soil_bounds.peat"),
@@ -116,32 +116,6 @@ def test_the_fixed_parameters_reach_the_scenes_and_name_the_evaluation():
     items = bench.overrides(params, cfg["fixed"])
     assert "bond_fragile=0.0" in items and "shear_cohesion=300000.0" in items
     assert bench.evaluation_id("clay", 1, params, cfg) != bench.evaluation_id("clay", 1, params, {**cfg, "fixed": {}})
-
-
-def test_a_shear_bond_of_its_own_reaches_the_scenes_and_the_planes_and_the_deepest_point_keeps_it_in_range():
-    """A soil that calibrates its shear bond apart from its normal (tensile) one: the scenes get the pair as given,
-    the planes a term for the shear bond's excess over the normal one (0 where an evaluation held them equal), and the
-    deepest point a shear bond inside its own range; a soil that does not keeps the two equal."""
-    items = bench.overrides({"normal_cohesion": 3e4, "shear_cohesion": 2e5, "friction_deg": 20.0})
-    assert "normal_cohesion=30000.0" in items and "shear_cohesion=200000.0" in items
-    table = pd.DataFrame({"normal_cohesion": [1e5, 5e4], "shear_cohesion": [np.nan, 1.5e5], "friction_deg": [15.0] * 2,
-                          "rolling_friction": [0.1] * 2})
-    assert bench.surface_terms(table)["shear_excess_kpa"].tolist() == [0.0, 100.0]
-    assert (bench.surface_terms(table.drop(columns="shear_cohesion"))["shear_excess_kpa"] == 0).all()
-    flat = {"friction_deg": 0.0, "rolling_friction": 0.0, "disturbed_bond_kpa": 0.0}
-    planes = pd.DataFrame([{"response": "c_kpa", "intercept": 0.0, "bond_kpa": 0.1, "shear_excess_kpa": 0.0, **flat,
-                            "resid_sd": 0.5},          # c reads the normal bond, the cone the shear bond
-                           {"response": "cone_kpa", "intercept": 0.0, "bond_kpa": 2.0, "shear_excess_kpa": 2.0, **flat,
-                            "resid_sd": 10.0}])
-    targets = pd.DataFrame({"lo": [4.0, 280.0], "hi": [6.0, 320.0]}, index=["c_kpa", "cone_kpa"])
-    bounds = {"normal_cohesion": (2e4, 1.6e5), "friction_deg": (10.0, 20.0), "rolling_friction": (0.0, 0.2)}
-    d = bench.deepest_point(planes, targets, {**bounds, "shear_cohesion": (5e4, 3e5)})
-    assert d["normal_cohesion"] == pytest.approx(5e4) and d["shear_cohesion"] == pytest.approx(1.5e5)
-    assert d["c_kpa"] == pytest.approx(5.0) and d["cone_kpa"] == pytest.approx(300.0)
-    held = bench.deepest_point(planes, targets, bounds)     # shear bond = normal bond: c and the cone cannot both meet
-    assert "shear_cohesion" not in held and held["margin_sd"] < 0
-    narrow = bench.deepest_point(planes, targets, {**bounds, "shear_cohesion": (5e4, 1e5)})
-    assert narrow["shear_cohesion"] <= 1e5 + 1e-6 and narrow["margin_sd"] < d["margin_sd"]
 
 
 def test_the_batch_model_gives_the_one_by_one_posterior():
@@ -565,13 +539,13 @@ def test_the_deepest_point_lies_midway_in_made_up_planes_and_its_check_runs_it_o
 
 
 def test_the_packings_check_runs_no_cone_and_tells_the_mean_by_its_interval(tmp_path, monkeypatch):
-    post = {"normal_cohesion": 1.0e5, "shear_cohesion": 1.0e5, "friction_deg": 20.0, "pressed_adhesion": 0.05,
-            "rolling_friction": 0.05, "damping": 0.15}
+    post = {"normal_cohesion": 1.0e5, "friction_deg": 20.0, "pressed_adhesion": 0.05, "rolling_friction": 0.05,
+            "damping": 0.15}
     (tmp_path / "sand-posterior.json").write_text(json.dumps({"mean": post}))
     cfg = bench.load_config(soil="sand")
-    pd.DataFrame([{"soil": "sand", **{k: v for k, v in post.items() if k != "shear_cohesion"}}]).to_csv(
+    pd.DataFrame([{"soil": "sand", **{k: v for k, v in post.items() if k != "damping"}}]).to_csv(
         tmp_path / "deepest.csv", index=False)
-    with pytest.raises(ConfigError, match="lacks shear_cohesion"):    # planes drawn over a prior without it
+    with pytest.raises(ConfigError, match="lacks damping"):    # planes drawn over a prior without it
         bench.check_packings("sand", [1, 2, 3], cfg, tmp_path, which="deepest")
     seen = []
 

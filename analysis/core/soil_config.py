@@ -112,9 +112,9 @@ SOIL_SOURCES = ("table", "bench")    # a preset's `soils`: each config's [soil],
 def bench_soil(soil: Soil, path=None) -> Soil:
     """The soil as its bench calibration left it: the posterior mean of every calibrated parameter and the values
     the calibration held fixed (the `[bench_posterior]` table `./holes calibrate --soil S --bench` writes into
-    configs/soils/<soil>.toml), the shear bond its own where the calibration varied it, else equal to the normal one;
-    the rest (modulus, rolling stiffness, and the damping where the calibration did not set it) from [soil]. A soil
-    never calibrated on its bench tests is a ConfigError.
+    configs/soils/<soil>.toml), the shear bond equal to the normal one as the bench tests ran it; the rest (modulus,
+    rolling stiffness, and the damping where the calibration did not set it) from [soil]. A soil never calibrated on
+    its bench tests is a ConfigError.
 
     >>> s = bench_soil(load_soil("clay"))
     >>> s.bond_fragile, s.shear_cohesion == s.normal_cohesion, s.young == load_soil("clay").young
@@ -126,7 +126,7 @@ def bench_soil(soil: Soil, path=None) -> Soil:
         raise ConfigError(f"{path}: no [bench_posterior]: soils = 'bench' needs the soil calibrated on its bench tests "
                           f"(./holes calibrate --soil {soil.name} --bench); allowed soils = 'table' until then")
     values = {k: v["mean"] for k, v in post.items() if k in SOIL_FIELDS and isinstance(v, dict)}
-    return soil_with(soil, bond_pair({**values, **post.get("fixed", {})}))
+    return soil_with(soil, equal_bonds({**values, **post.get("fixed", {})}))
 
 
 BENCH_DIR = ROOT / "results/calibration/bench"    # the bench calibration's tables (`./holes calibrate --bench`)
@@ -168,20 +168,17 @@ def posterior_samples(soil: str, share: float, most: int, bench_dir=None) -> lis
     last = t[t.iteration == t.iteration.max()]
     rows = [{**{k: float(r[k]) for k in meta["names"]}, "weight": float(r["weight_last"])}
             for r in last.to_dict("records") if pd.notna(r["weight_last"])]
-    return [{**bond_pair({k: v for k, v in s.items() if k != "weight"}), **meta.get("fixed", {}),
+    return [{**equal_bonds({k: v for k, v in s.items() if k != "weight"}), **meta.get("fixed", {}),
              "weight": s["weight"]} for s in heaviest(rows, share, most)]
 
 
-def bond_pair(values: dict) -> dict:
-    """Contact parameters with their shear bond: the one they give (a soil whose bench calibration varies it), else
-    equal to the normal bond, as the bench calibration holds it for a soil that does not.
+def equal_bonds(values: dict) -> dict:
+    """Contact parameters with the shear bond set equal to the normal one, as the bench calibration varies them.
 
-    >>> bond_pair({"normal_cohesion": 3e5, "friction_deg": 12.0})
-    {'shear_cohesion': 300000.0, 'normal_cohesion': 300000.0, 'friction_deg': 12.0}
-    >>> bond_pair({"normal_cohesion": 3e4, "shear_cohesion": 2e5})["shear_cohesion"]
-    200000.0
+    >>> equal_bonds({"normal_cohesion": 3e5, "friction_deg": 12.0})
+    {'normal_cohesion': 300000.0, 'friction_deg': 12.0, 'shear_cohesion': 300000.0}
     """
-    return {"shear_cohesion": values["normal_cohesion"], **values} if "normal_cohesion" in values else dict(values)
+    return {**values, "shear_cohesion": values["normal_cohesion"]} if "normal_cohesion" in values else dict(values)
 
 
 def soil_with(soil: Soil, overrides: dict) -> Soil:

@@ -71,10 +71,9 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
         raise ConfigError(f"{path}: stresses_kpa = {stresses}: allowed three or more distinct normal stresses above "
                           "0 kPa (c and φ with an interval)")
     for where, ranges in {"bounds": bounds, **{f"soil_bounds.{n}": own for n, own in per_soil.items()}}.items():
-        stray = sorted(set(ranges) - set(bounds) - set(SOIL_FIELDS))   # a soil narrows the common parameters or
-        if stray:                                                        # calibrates a contact parameter of its own
-            raise ConfigError(f"{path}: {where}.{stray[0]}: not in [bounds] nor a soil contact parameter; allowed "
-                              f"{', '.join(bounds)} or {', '.join(sorted(set(SOIL_FIELDS) - set(bounds)))}")
+        stray = sorted(set(ranges) - set(bounds))          # a soil narrows the common parameters only
+        if stray:
+            raise ConfigError(f"{path}: {where}.{stray[0]}: not in [bounds]; allowed {', '.join(bounds)}")
         for name, rng in ranges.items():
             if len(rng) != 2 or not rng[0] < rng[1]:
                 raise ConfigError(f"{path}: {where}.{name} = {rng}: allowed [lo, hi] with lo < hi")
@@ -173,9 +172,9 @@ def rounded(params: dict) -> dict:
 
 def overrides(params: dict, fixed: dict | None = None) -> list[str]:
     """The scenes' --test-set items for a parameter set and the calibration's fixed parameters (the shear bond
-    equal to the normal bond unless the set gives its own, `bond_pair`)."""
-    from analysis.core.soil_config import bond_pair
-    return [f"{k}={v}" for k, v in bond_pair({**(fixed or {}), **rounded(params)}).items()]
+    kept equal to the normal bond)."""
+    from analysis.core.soil_config import equal_bonds
+    return [f"{k}={v}" for k, v in equal_bonds({**(fixed or {}), **rounded(params)}).items()]
 
 
 def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
@@ -903,8 +902,7 @@ def write_posterior(soil: str, post: dict, check_result: dict, command: str, pat
     return path
 
 
-SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping", "pressed_adhesion",
-                 "shear_excess_kpa")
+SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping", "pressed_adhesion")
 UNSET_DAMPING = 0.2    # the local damping an evaluation that does not set one runs at: every soil's configured value
 UNSET = {"new_contact_cohesion": 0.0, "damping": UNSET_DAMPING, "pressed_adhesion": 0.0}   # a term's value where
 # neither an evaluation nor the calibration's [fixed] gives one
@@ -913,22 +911,19 @@ UNSET = {"new_contact_cohesion": 0.0, "damping": UNSET_DAMPING, "pressed_adhesio
 def surface_terms(table: pd.DataFrame, fixed: dict | None = None) -> pd.DataFrame:
     """An evaluation's parameters as the response surfaces' terms: the intact bond and the bond a contact made
     after disturbance gets (new-contact share × bond), both in kPa, the grains' friction, rolling friction, the
-    local damping (UNSET_DAMPING where the evaluation did not set it), the pressed re-adhesion (0 where not set) and
-    the shear bond's excess over the intact (normal) bond, kPa (0 where the shear bond is not its own).
+    local damping (UNSET_DAMPING where the evaluation did not set it) and the pressed re-adhesion (0 where not set).
     A parameter the table lacks takes its `fixed` value (the calibration's [fixed]), the share 0 and the damping
     UNSET_DAMPING failing that."""
     fixed = {**UNSET, **(fixed or {})}
-    bond = table["normal_cohesion"].astype(float)
 
     def column(name):
         given = table[name] if name in table else pd.Series(np.nan, index=table.index)
         return given.fillna(fixed[name]).astype(float)
 
-    shear = (table["shear_cohesion"] if "shear_cohesion" in table else bond).fillna(bond).astype(float)
-    return pd.DataFrame({"bond_kpa": bond / 1e3, "friction_deg": table["friction_deg"],
-                         "disturbed_bond_kpa": bond * column("new_contact_cohesion") / 1e3,
+    return pd.DataFrame({"bond_kpa": table["normal_cohesion"] / 1e3, "friction_deg": table["friction_deg"],
+                         "disturbed_bond_kpa": table["normal_cohesion"] * column("new_contact_cohesion") / 1e3,
                          "rolling_friction": table["rolling_friction"], "damping": column("damping"),
-                         "pressed_adhesion": column("pressed_adhesion"), "shear_excess_kpa": (shear - bond) / 1e3})
+                         "pressed_adhesion": column("pressed_adhesion")})
 
 
 def response_surfaces(table: pd.DataFrame, fixed: dict | None = None) -> pd.DataFrame:
@@ -994,8 +989,7 @@ def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, f
     """The parameter set in `bounds` whose planes lie deepest inside every target's range, the depth counted in
     each plane's residual SD (the runs' own scatter with the plane's misfit): the largest t with every response
     at least t SDs from both ends of its range (scipy's linear programme in the planes' terms; the share bond, share
-    × intact bond, bounded by the share's range; the shear bond's excess bounded by its range less the intact bond,
-    0 where `bounds` does not calibrate it; a parameter `bounds` lacks held at its `fixed` value). Where a check
+    × intact bond, bounded by the share's range; a parameter `bounds` lacks held at its `fixed` value). Where a check
     on several packings has the best chance of finding every response inside; t < 0 when the planes meet the
     targets nowhere in `bounds` (the least miss).
 
@@ -1014,33 +1008,27 @@ def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, f
         return tuple(bounds.get(name, (fixed[name], fixed[name])))
 
     (b_lo, b_hi), (s_lo, s_hi) = bounds["normal_cohesion"], held("new_contact_cohesion")
-    own_shear = "shear_cohesion" in bounds
-    # variables: the seven terms and t
+    # variables: the six terms and t
     box = [(b_lo / 1e3, b_hi / 1e3), tuple(bounds["friction_deg"]), (0.0, None), tuple(bounds["rolling_friction"]),
-           held("damping"), held("pressed_adhesion"), (None, None) if own_shear else (0.0, 0.0), (None, None)]
+           held("damping"), held("pressed_adhesion"), (None, None)]
     planes = surfaces.set_index("response").reindex(columns=[*SURFACE_TERMS, "intercept", "resid_sd"])
     coefs = planes[list(SURFACE_TERMS)].fillna(0.0).to_numpy(float)
-    rows, rhs = [[-s_hi, 0, 1, 0, 0, 0, 0, 0], [s_lo, 0, -1, 0, 0, 0, 0, 0]], [0.0, 0.0]
-    if own_shear:                  # the shear bond, intact bond + excess, within its own range
-        (h_lo, h_hi) = bounds["shear_cohesion"]
-        rows += [[1, 0, 0, 0, 0, 0, 1, 0], [-1, 0, 0, 0, 0, 0, -1, 0]]
-        rhs += [h_hi / 1e3, -h_lo / 1e3]
+    rows, rhs = [[-s_hi, 0, 1, 0, 0, 0, 0], [s_lo, 0, -1, 0, 0, 0, 0]], [0.0, 0.0]
     for r, coef in zip(planes.itertuples(), coefs):
         lo, hi = targets.loc[r.Index, ["lo", "hi"]]
         rows += [[*-coef, r.resid_sd], [*coef, r.resid_sd]]
         rhs += [r.intercept - lo, hi - r.intercept]
-    out = linprog([0, 0, 0, 0, 0, 0, 0, -1], A_ub=rows, b_ub=rhs, bounds=box)
+    out = linprog([0, 0, 0, 0, 0, 0, -1], A_ub=rows, b_ub=rhs, bounds=box)
     if not out.success:
         raise RuntimeError(f"deepest_point: {out.message}")
-    bond, friction, disturbed, rolling, damping, pressed, excess, margin = out.x
+    bond, friction, disturbed, rolling, damping, pressed, margin = out.x
     point = {"margin_sd": float(margin), "normal_cohesion": float(bond * 1e3), "friction_deg": float(friction),
              **({"new_contact_cohesion": float(disturbed / bond) if bond > 0 else 0.0}
                 if "new_contact_cohesion" in bounds else {}), "rolling_friction": float(rolling),
              **({"damping": float(damping)} if "damping" in bounds else {}),
-             **({"pressed_adhesion": float(pressed)} if "pressed_adhesion" in bounds else {}),
-             **({"shear_cohesion": float((bond + excess) * 1e3)} if own_shear else {})}
+             **({"pressed_adhesion": float(pressed)} if "pressed_adhesion" in bounds else {})}
     predicted = planes["intercept"].to_numpy(float) + coefs @ np.array([bond, friction, disturbed, rolling, damping,
-                                                                        pressed, excess])
+                                                                        pressed])
     return {**point, **dict(zip(planes.index, map(float, predicted)))}
 
 

@@ -195,8 +195,8 @@ def shear_scatter(sets: list[tuple[list[float], np.ndarray]]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-CHECKED_PARAMETERS = ("normal_cohesion", "shear_cohesion", "friction_deg", "new_contact_cohesion", "pressed_adhesion",
-                      "rolling_friction", "damping")      # a checked set's parameters: what names it in a check's rows
+CHECKED_PARAMETERS = ("normal_cohesion", "friction_deg", "new_contact_cohesion", "pressed_adhesion", "rolling_friction",
+                      "damping")      # a checked set's parameters: what names it in a check's rows
 
 
 def checked_sets(out_dir: Path = BENCH_DIR) -> list[tuple[Path, str, dict, pd.DataFrame]]:
