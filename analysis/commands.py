@@ -162,6 +162,16 @@ def cmd_compare(args) -> int:
         return 2
 
 
+def packings_checked(args, cfg: dict) -> dict:
+    """`calibrate --bench --check-packings`: the check on the packings of --seeds; the posterior's is recorded in
+    configs/soils/<soil>.toml [bench_posterior] too."""
+    from analysis.soil import bench_calibration as bench
+    result = bench.check_packings(args.soil, args.seeds, cfg, which=args.check_packings)
+    if args.check_packings == "posterior":
+        bench.record_packings(args.soil, result, args.seeds)
+    return result
+
+
 def cmd_calibrate_bench(args) -> int:
     """`calibrate --bench`: the soil's three contact parameters on its bench tests (GrainLearning), then the
     posterior's bench responses on the check packings."""
@@ -190,8 +200,7 @@ def cmd_calibrate_bench(args) -> int:
                   "--probe": lambda: bench.probes(args.soil, args.probe, cfg),
                   "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds, cfg, workers=cfg["workers"]).round(2),
                   "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg)).T,
-                  "--check-packings": lambda: pd.DataFrame(
-                      bench.check_packings(args.soil, args.seeds, cfg, which=args.check_packings)).T}
+                  "--check-packings": lambda: pd.DataFrame(packings_checked(args, cfg)).T}
         try:
             table = checks[asked[0]]()
         except ConfigError as e:
@@ -290,7 +299,7 @@ def cmd_calibration_report(args) -> int:
     print(calibration_report.run().to_string(index=False))
     for path in [*bench_calibration.report(), *soils_apart.run(), soils_apart.filter_packing_run(),
                  soils_apart.check_odds_run(), soils_apart.shear_scatter_run(), soils_apart.packing_effects_run(),
-                 soils_apart.cone_per_c_run()]:
+                 soils_apart.cone_per_c_run(), soils_apart.box_shift_run()]:
         if path:
             print(f"wrote {path}")
     return 0

@@ -281,7 +281,12 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
     assert config.read_text().count("[bench_posterior]") == 1 and load_soil(config) == load_soil("clay")
     assert table["friction_deg"]["mean"] == pytest.approx(post["mean"]["friction_deg"], rel=1e-3)
     assert table["status"].startswith(("within every target", "outside its target"))
-    assert "; the packings' mean " in table["status"]
+    assert "; the packings' mean " in table["status"] and "check_packings" not in table
+    nine = {"c_kpa": {"mean": 23.7, "mean_interval": [20.4, 27.0], "mean_verdict": "inside"}}
+    bench.record_packings("clay", nine, [1, 2, 3, 4], tmp_path, config)      # the check on more packings beside it
+    table = read_toml(config)["bench_posterior"]
+    assert table["check_packings"] == {"seeds": [1, 2, 3, 4], "c_kpa": "inside: 23.7 [20.4, 27]"}
+    assert table["status"].startswith(("within every target", "outside its target")) and load_soil(config) == load_soil("clay")
 
 
 @pytest.mark.parametrize("scene", ["collapse", "cone"])
@@ -599,6 +604,15 @@ def test_the_planes_take_each_evaluation_once_with_its_three_packing_cone(tmp_pa
     assert source == "clay.csv, clay-check.csv, clay-check-packings.csv"
     assert len(table) == 10 and table["cone_kpa"].notna().sum() == 4
     assert bench.soil_evaluations("sand", tmp_path) is None
+    for i, size in ((1, [0.15, 0.15, 0.1]), (2, [0.225, 0.225, 0.15])):       # packing 2's box another size
+        (tmp_path / "clay" / f"s{i}").mkdir(parents=True)
+        (tmp_path / "clay" / f"s{i}" / "box.json").write_text(json.dumps({"tests": [{"size_m": size}]}))
+    table, _ = bench.soil_evaluations("clay", tmp_path, [150, 150, 100])
+    assert len(table) == 9 and "s2" not in set(table["id"]) and bench.evaluation_box(tmp_path / "clay" / "s2") == [225, 225, 150]
+    (tmp_path / "filter-box").mkdir()
+    pd.DataFrame([{**base, "id": "s10"}]).to_csv(tmp_path / "filter-box" / "clay-check.csv", index=False)
+    table, source = bench.soil_evaluations("clay", tmp_path, [150, 150, 100])
+    assert source.endswith("filter-box/clay-check.csv") and "s10" in set(table["id"])
 
 
 def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_path, monkeypatch, capsys):
@@ -767,6 +781,41 @@ def test_the_collapse_column_takes_its_own_size_and_names_the_evaluation_only_wh
     assert "[225, 0, 150]" in text
     (tmp_path / "b.toml").write_text(text)
     with pytest.raises(ConfigError, match="collapse_size_mm"):
+        bench.load_config(tmp_path / "b.toml")
+
+
+
+def test_the_checks_read_their_own_box_and_take_a_scene_a_twin_already_ran(tmp_path, monkeypatch):
+    """A check runs the shear box in [bench] check_box_mm; the collapse column it shares with the filter's box is
+    copied from that evaluation of the same set and packing, not run again; a twin whose scene had other inputs (the
+    size check's grown column) gives nothing; a bad check box is refused."""
+    cfg = bench.load_config(soil="clay")
+    params = {"normal_cohesion": 9e4, "friction_deg": 9.0, "pressed_adhesion": 0.1, "rolling_friction": 0.3,
+              "damping": 0.1}
+    checks = bench.checks_bench(cfg)
+    assert checks["size_mm"] == cfg["check_box_mm"] != cfg["size_mm"]
+    assert checks["collapse_size_mm"] == bench.collapse_size(cfg)
+    heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]       # 45° from x = 100 mm
+    filter_box = tmp_path / "clay" / bench.evaluation_id("clay", 1, params, cfg)
+    filter_box.mkdir(parents=True)
+    (filter_box / "column.json").write_text(json.dumps({"profile_mm": heap, "runout_mm": 90.0}))
+    (filter_box / "box.json").write_text(json.dumps({"c_kpa": 30.0, "phi_deg": 25.0, "tests": [{"tau_peak_kpa": 9.0}]}))
+    ran = []
+
+    def fake(cmd, sink):
+        ran.append((Path(cmd[1]).stem, cmd[cmd.index("--size") + 1]))
+        return 0, json.dumps({"c_kpa": 22.0, "phi_deg": 28.0})
+    monkeypatch.setattr(runner, "run_process", fake)
+    row = bench.evaluate("clay", 1, params, checks, tmp_path)
+    assert ran == [("shear", ",".join(map(str, cfg["check_box_mm"])))]
+    assert (row["c_kpa"], row["resumed"]) == (22.0, "collapse (a twin's)")
+    assert row["collapse_deg"] == pytest.approx(45.0, abs=1.0) and row["collapse_runout_mm"] == 90.0
+    grown = bench.grown_bench(cfg)
+    assert bench.scene_inputs("collapse", grown) != bench.scene_inputs("collapse", checks)
+    assert bench.scene_inputs("shear", grown) == bench.scene_inputs("shear", checks)
+    text = bench.CONFIG.read_text().replace("check_box_mm = [225, 225, 150]", "check_box_mm = [225, -1, 150]", 1)
+    (tmp_path / "b.toml").write_text(text)
+    with pytest.raises(ConfigError, match="check_box_mm"):
         bench.load_config(tmp_path / "b.toml")
 
 
@@ -1041,6 +1090,25 @@ def test_the_box_scatter_counts_each_checked_set_once_and_tells_a_moved_deepest_
     table = pd.read_csv(shear_scatter_run(tmp_path), comment="#").set_index("stress_kpa")
     assert table.loc[200.0, "sets"] == 3 and table.loc[200.0, "dof"] == 3 + 2 + 2
     assert table.loc[200.0, "tau_sd_kpa"] == pytest.approx(np.sqrt(3 * 128 / 7), abs=1e-3)   # 128 each set
+
+
+def test_the_box_shift_sets_a_posteriors_packings_in_the_filters_box_beside_the_checks(tmp_path):
+    """`box_shift_run`: a soil whose posterior was checked on more packings in both boxes gives a row per response,
+    the checks' box's mean less the filter's with its interval; a soil checked in one box only gives none."""
+    from analysis.soil.soils_apart import box_shift_run
+    assert box_shift_run(tmp_path) is None
+    (tmp_path / bench.FILTER_BOX_CHECKS).mkdir()
+
+    def rows(c0):
+        return pd.DataFrame({"c_kpa": [c0, c0 + 2, c0 + 4, c0 + 1], "phi_deg": [30.0, 31.0, 32.0, 31.0],
+                             "collapse_deg": [35.0, 36.0, 34.0, 35.0]})
+    rows(12.0).to_csv(tmp_path / bench.FILTER_BOX_CHECKS / "sand-check-packings.csv", index=False)
+    rows(9.0).to_csv(tmp_path / "sand-check-packings.csv", index=False)
+    rows(20.0).to_csv(tmp_path / "clay-check-packings.csv", index=False)
+    table = pd.read_csv(box_shift_run(tmp_path), comment="#").set_index("response")
+    assert set(table.soil) == {"sand"} and table.loc["c_kpa", "shift"] == pytest.approx(-3.0)
+    assert table.loc["c_kpa", "shift_lo"] < -3.0 < table.loc["c_kpa", "shift_hi"]
+    assert table.loc["phi_deg", "shift"] == 0 and not table.loc["phi_deg", "resolved"]
 
 
 def test_the_cone_per_c_table_reads_each_checked_sets_box_and_its_kept_cones_at_the_runs_grains(tmp_path):

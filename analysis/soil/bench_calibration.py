@@ -85,6 +85,10 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
     if column is not None and (len(column) != 3 or any(float(v) <= 0 for v in column)):
         raise ConfigError(f"{path}: bench.collapse_size_mm = {column}: allowed three lengths above 0 mm (the collapse "
                           "column's; left out, the shear box's size_mm)")
+    box = bench.get("check_box_mm")
+    if box is not None and (len(box) != 3 or any(float(v) <= 0 for v in box)):
+        raise ConfigError(f"{path}: bench.check_box_mm = {box}: allowed three lengths above 0 mm (the shear box the "
+                          "checks read; left out, the filter's size_mm)")
     grown = bench.get("size_check_mm")
     if grown is not None and (len(grown) != 3 or any(float(g) <= float(b) for g, b in zip(grown, bench["size_mm"]))):
         raise ConfigError(f"{path}: bench.size_check_mm = {grown}: allowed three lengths, each above size_mm's "
@@ -152,6 +156,57 @@ def collapse_size(cfg: dict) -> list:
     return list(cfg.get("collapse_size_mm", cfg["size_mm"]))
 
 
+def checks_bench(cfg: dict) -> dict:
+    """cfg with the shear box the posterior's checks read c and φ in ([bench] check_box_mm, where set), the collapse
+    column as configured; `twins` the bench settings under which the same set and packing may already have run a
+    scene with the same inputs (the filter's box, the size check's grown box), which `evaluate` reuses.
+
+    >>> b = checks_bench({"size_mm": [150, 150, 100], "collapse_size_mm": [225, 225, 150], "check_box_mm": [225, 225, 150]})
+    >>> b["size_mm"], b["collapse_size_mm"], [t["size_mm"] for t in b["twins"]]
+    ([225, 225, 150], [225, 225, 150], [[150, 150, 100]])
+    """
+    box = cfg.get("check_box_mm")
+    if box is None or list(box) == list(cfg["size_mm"]):
+        return cfg
+    twins = [cfg] + ([grown_bench(cfg)] if "size_check_mm" in cfg else [])
+    return {**cfg, "size_mm": list(box), "collapse_size_mm": collapse_size(cfg), "twins": twins}
+
+
+def grown_bench(cfg: dict) -> dict:
+    """cfg with the size check's box ([bench] size_check_mm) and its collapse column grown by as much."""
+    grow = [float(g) / float(b) for g, b in zip(cfg["size_check_mm"], cfg["size_mm"])]
+    return {**cfg, "size_mm": list(cfg["size_check_mm"]),
+            "collapse_size_mm": [round(v * k) for v, k in zip(collapse_size(cfg), grow)]}
+
+
+def scene_inputs(scene: str, cfg: dict) -> dict:
+    """What a bench scene reads of the bench's settings beyond the soil, the packing and the set: two evaluations
+    alike in these ran the scene alike."""
+    common = {"resolution": cfg["resolution"], "fixed": dict(sorted((cfg.get("fixed") or {}).items()))}
+    if scene == "shear":
+        return {**common, "size_mm": [float(v) for v in cfg["size_mm"]],
+                "stresses": [float(v) for v in cfg["stresses_kpa"]], "speed": float(cfg["speed_m_s"])}
+    return {**common, "size_mm": [float(v) for v in collapse_size(cfg)]}
+
+
+def from_twin(scene: str, soil: str, seed: int, params: dict, cfg: dict, folder: Path, out_dir: Path) -> dict | None:
+    """The scene's finished result from a twin evaluation (cfg["twins"]) of the same set and packing whose scene had
+    the same inputs (`scene_inputs`), copied into `folder` with its log; None if no twin finished it."""
+    for twin in cfg.get("twins", []):
+        if scene_inputs(scene, twin) != scene_inputs(scene, cfg):
+            continue
+        source = Path(out_dir) / soil / evaluation_id(soil, seed, params, twin)
+        found = scene_result(source, scene) if source.is_dir() else None
+        if found is None:
+            continue
+        for path in sorted(source.glob("*.json")) + [source / f"{scene}.log"]:
+            if path.exists() and path.name != "responses.json" and (path.suffix == ".log" or
+                                                                    SCENE_DETAIL[scene] in json.loads(path.read_text())):
+                atomic_write(folder / path.name, path.read_text())
+        return found
+    return None
+
+
 def evaluation_id(soil: str, seed: int, params: dict, cfg: dict) -> str:
     """One evaluation's folder name: the soil, the packing and a hash of the parameters (4 significant digits)
     and the bench's settings."""
@@ -200,6 +255,10 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
         results[scene] = scene_result(folder, scene)
         if results[scene] is not None:       # a stopped evaluation resumes after its last finished test
             resumed.append(scene)
+            continue
+        results[scene] = from_twin(scene, soil, seed, params, cfg, folder, out_dir)
+        if results[scene] is not None:       # the same scene of the same set and packing, run beside another box
+            resumed.append(f"{scene} (a twin's)")
             continue
         code, out = run_logged([sys.executable, str(ROOT / f"scripts/{scene}.py"), *common, *extra],
                                folder / f"{scene}.log")
@@ -424,7 +483,8 @@ def weighted_correlation(table: pd.DataFrame, names: list[str], w) -> dict:
 
 def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_DIR, label: str = "check",
           cone: bool = True, keep_earlier: bool = False) -> dict:
-    """The posterior mean's (post["mean"]) bench responses on each check packing against the targets' ranges; writes
+    """The posterior mean's (post["mean"]) bench responses on each check packing, the shear box in the checks' own
+    ([bench] check_box_mm, `checks_bench`), against the targets' ranges; writes
     results/calibration/bench/<soil>-<label>.csv and .json. Returns per response: the mean over packings, their SD and
     whether every packing lies inside the target's range (strict: with packings as scattered as these runs' a set
     centred in every range passes on three packings about a fifth of the time, `every_packing_chance`) and
@@ -436,7 +496,7 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
     with any of them no verdict is "inside".
     `keep_earlier`: the CSV keeps the rows of the sets checked before under the label (each row names its set; the
     JSON judges this set alone): the planes' deepest set moves as the planes take in its checks."""
-    cfg = runs_cone(cfg or load_config(soil=soil))
+    cfg = checks_bench(runs_cone(cfg or load_config(soil=soil)))
     params = {k: float(v) for k, v in post["mean"].items()}
     rows = evaluate_all(soil, [(int(s), params) for s in cfg["check_seeds"]], cfg, out_dir,
                         with_cone=cone and bool(cfg.get("cone_target")))
@@ -557,7 +617,7 @@ def deepest_set(soil: str, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
 
 def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
     """The bench's size check at the soil's posterior mean (<out_dir>/<soil>-posterior.json): its responses on the
-    check packings in the configured box and collapse column ([bench] size_mm, the check's evaluations, reused) and
+    check packings in the filter's box and collapse column ([bench] size_mm and collapse_size_mm) and
     in one grown by half each way (size_check_mm). Writes <soil>-size.csv (every evaluation) and returns the
     verdict per response (`size_verdict`)."""
     cfg = cfg or load_config(soil=soil)
@@ -565,9 +625,7 @@ def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) ->
         raise ConfigError(f"{CONFIG}: [bench] lacks size_check_mm (the grown box, mm)")
     params = posterior_mean(soil, out_dir)
     seeds = [int(s) for s in cfg["check_seeds"]]
-    grow = [float(g) / float(b) for g, b in zip(cfg["size_check_mm"], cfg["size_mm"])]   # the column grows as the box
-    boxes = {"configured": cfg, "grown": {**cfg, "size_mm": list(cfg["size_check_mm"]),
-                                          "collapse_size_mm": [round(v * k) for v, k in zip(collapse_size(cfg), grow)]}}
+    boxes = {"configured": cfg, "grown": grown_bench(cfg)}
     jobs = [(name, box, s) for name, box in boxes.items() for s in seeds]
     rows = evaluate_all(soil, [(s, params) for _, _, s in jobs], cfg, out_dir, cfgs=[box for _, box, _ in jobs])
     table = pd.DataFrame([{"box": name, "size_mm": "x".join(f"{v:g}" for v in box["size_mm"]), **row}
@@ -867,14 +925,28 @@ def check_status(check_result: dict) -> str:
                                     "; the packings' mean outside: " + ", ".join(off))
 
 
-def posterior_block(soil: str, post: dict, check_result: dict, command: str) -> str:
+def packings_line(result: dict, seeds: list[int]) -> str:
+    """The posterior's check on more packings (`check_packings`) as its `[bench_posterior]` line: per response the
+    verdict of the packings' mean, the mean and its 95 % interval.
+
+    >>> packings_line({"c_kpa": {"mean": 23.71, "mean_interval": [20.43, 27.0], "mean_verdict": "inside"}}, [1, 2, 3])
+    'check_packings = { seeds = [1, 2, 3], c_kpa = "inside: 23.7 [20.4, 27]" }'
+    """
+    verdicts = [f'{r} = "{v["mean_verdict"]}: {v["mean"]:.3g} [{v["mean_interval"][0]:.3g}, {v["mean_interval"][1]:.3g}]"'
+                for r, v in result.items()]
+    return "check_packings = { " + ", ".join([f"seeds = {list(map(int, seeds))}", *verdicts]) + " }"
+
+
+def posterior_block(soil: str, post: dict, check_result: dict, command: str, packings: str | None = None) -> str:
     """The `[bench_posterior]` table a soil's config carries: the parameters held fixed, each calibrated parameter's
     posterior mean and 95 % interval,
     their correlations, the bench responses of the mean over the check packings, and whether every packing's
-    response lies inside every target's range (status)."""
+    response lies inside every target's range (status); `packings`, its check on more packings (`packings_line`)."""
     status = check_status(check_result)
     lines = [POSTERIOR_HEAD + f" (`{command}`), results/calibration/bench/{soil}-posterior.json; the runs of the",
              "# holes use [soil] above until it is adopted.", "[bench_posterior]", f'status = "{status}"']
+    if packings:
+        lines.append(packings)
     if post.get("fixed"):                     # held, not calibrated: the posterior holds with these only
         lines.append("fixed = { " + ", ".join(f"{k} = {v:g}" for k, v in post["fixed"].items()) + " }")
     for n in post["names"]:
@@ -889,7 +961,8 @@ def posterior_block(soil: str, post: dict, check_result: dict, command: str) -> 
     return "\n".join(lines) + "\n"
 
 
-def write_posterior(soil: str, post: dict, check_result: dict, command: str, path: Path | None = None) -> Path:
+def write_posterior(soil: str, post: dict, check_result: dict, command: str, path: Path | None = None,
+                    packings: str | None = None) -> Path:
     """Put (or replace) the soil config's `[bench_posterior]` table, keeping the rest of the file as it is; the file
     must still load."""
     from analysis.core.soil_config import load_soil
@@ -897,9 +970,18 @@ def write_posterior(soil: str, post: dict, check_result: dict, command: str, pat
     text = path.read_text()
     if POSTERIOR_HEAD in text:
         text = text[:text.index(POSTERIOR_HEAD)].rstrip("\n") + "\n"
-    atomic_write(path, text + "\n" + posterior_block(soil, post, check_result, command))
+    atomic_write(path, text + "\n" + posterior_block(soil, post, check_result, command, packings))
     load_soil(path)
     return path
+
+
+def record_packings(soil: str, result: dict, seeds: list[int], out_dir: Path = BENCH_DIR,
+                    path: Path | None = None) -> Path:
+    """The posterior's check on more packings written into the soil config's `[bench_posterior]` beside the filter's
+    posterior (<out_dir>/<soil>-posterior.json) and its check on the check packings (<soil>-check.json)."""
+    post, three = (json.loads((Path(out_dir) / f"{soil}-{name}.json").read_text()) for name in ("posterior", "check"))
+    return write_posterior(soil, post, three, f"./holes calibrate --soil {soil} --bench", path,
+                           packings_line(result, seeds))
 
 
 SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping", "pressed_adhesion")
@@ -1082,21 +1164,37 @@ def profile_plot(profile: pd.DataFrame, path: Path) -> Path:
 
 
 CHECK_TABLES = ("-check", "-check-packings", "-deepest-check-packings")    # the checks the planes take in
+FILTER_BOX_CHECKS = "filter-box"    # the posteriors' checks read in the filter's shear box, before the checks had a box
+# of their own ([bench] check_box_mm): the planes, drawn in the filter's box, take them in
 
 
-def soil_evaluations(soil: str, out_dir: Path = BENCH_DIR) -> tuple[pd.DataFrame, str] | None:
+def soil_evaluations(soil: str, out_dir: Path = BENCH_DIR, box: list | None = None) -> tuple[pd.DataFrame, str] | None:
     """A soil's filter's and checks' evaluations as one table, each evaluation once (its first row: the three-packing
     check's, with its cone), and where they come from: its finished filter (<soil>.csv) with its posterior's checks on
-    three and more packings and its deepest sets' on more (CHECK_TABLES), or while its filter runs, the iterations it
-    has finished (<soil>-running.csv); None when it has neither."""
+    three and more packings and its deepest sets' on more (CHECK_TABLES, in out_dir and in FILTER_BOX_CHECKS), or
+    while its filter runs, the iterations it has finished (<soil>-running.csv); None when it has neither. `box`: only
+    the evaluations whose shear box had this size (mm; `evaluation_box`), those of unknown box kept."""
     tables = [Path(out_dir) / f"{soil}{part}.csv" for part in ("", *CHECK_TABLES)]
+    tables += [Path(out_dir) / FILTER_BOX_CHECKS / f"{soil}{part}.csv" for part in CHECK_TABLES]
     if not tables[0].exists():
         tables = [Path(out_dir) / f"{soil}-running.csv"]
     found = [t for t in tables if t.exists()]
     if not found:
         return None
     table = pd.concat([pd.read_csv(t, comment="#") for t in found])
-    return table.drop_duplicates("id") if "id" in table else table, ", ".join(t.name for t in found)
+    table = table.drop_duplicates("id") if "id" in table else table
+    if box is not None and "id" in table:
+        boxes = [evaluation_box(Path(out_dir) / soil / str(i)) for i in table["id"]]
+        table = table[[b is None or b == [float(v) for v in box] for b in boxes]]
+    return table, ", ".join(str(t.relative_to(out_dir)) for t in found)
+
+
+def evaluation_box(folder: Path) -> list[float] | None:
+    """The size (mm) of the shear box an evaluation's folder ran, from its result file; None if it holds none."""
+    data = scene_result(folder, "shear") if folder.is_dir() else None
+    if not data or not data.get("tests"):
+        return None
+    return [round(v * 1e3, 3) for v in data["tests"][0]["size_m"]]
 
 
 def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> list[Path]:
@@ -1109,12 +1207,12 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
     from analysis.core.soil_config import SOILS
     rows, regions, deepest, profiles, sources = [], [], [], [], []
     for soil in SOILS:
-        found = soil_evaluations(soil, out_dir)
+        own = load_config(soil=soil)
+        found = soil_evaluations(soil, out_dir, own["size_mm"])      # the planes are the filter's box's
         if found is None:
             continue
         table, source = found
         sources.append(f"{soil}: {source}")
-        own = load_config(soil=soil)
         surf = response_surfaces(table, own["fixed"]).assign(soil=soil)
         rows.append(surf)
         surf = surf[np.isfinite(surf["resid_sd"])]     # a plane with no more runs than terms has no scatter to count in

@@ -15,7 +15,7 @@ from scipy import stats
 
 from analysis.core.io import atomic_csv
 from analysis.core.soil_config import SOILS
-from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, cone_path, cone_range, difference_interval,
+from analysis.soil.bench_calibration import (BENCH_DIR, FILTER_BOX_CHECKS, RESPONSES, cone_path, cone_range, difference_interval,
                                              filter_seeds, load_config, mean_verdict, runs_cone, scene_result,
                                              target_ranges)
 
@@ -221,21 +221,67 @@ def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
     ductile bonds (the model's) on three packings or more, each set's peaks read from its evaluations' shear-box
     results; None when no check is there."""
     out_dir = Path(out_dir)
-    sets = []
+    by_box: dict[str, list] = {}
     for folder, soil, _, rows in checked_sets(out_dir):
         found = (next((p for p in (folder / soil / i, out_dir / soil / i) if p.is_dir()), None) for i in rows["id"])
         data = [d for d in (scene_result(p, "shear") for p in found if p is not None)
                 if d and d["overrides"].get("bond_fragile") == 0]          # ductile bonds, the model's
         stresses = {tuple(t["stress_kpa"] for t in d["tests"]) for d in data}
-        if len(data) >= 3 and len(stresses) == 1:
-            sets.append((list(stresses.pop()), np.array([[t["tau_peak_kpa"] for t in d["tests"]] for d in data])))
-    if not sets:
+        boxes = {"x".join(f"{v * 1e3:g}" for v in d["tests"][0].get("size_m", [])) for d in data}
+        if len(data) >= 3 and len(stresses) == 1 and len(boxes) == 1:
+            by_box.setdefault(boxes.pop(), []).append(
+                (list(stresses.pop()), np.array([[t["tau_peak_kpa"] for t in d["tests"]] for d in data])))
+    if not by_box:
         return None
     path = out_dir / "shear-scatter.csv"
-    atomic_csv(shear_scatter(sets).round(3), path,
-               f"./holes calibration-report; the shear box's peak shear stress per normal stress: its SD over the packings "
-               f"of one parameter set pooled over {len(sets)} checked sets (bench/ and its folders), its degrees of "
+    table = pd.concat([shear_scatter(sets).assign(box_mm=box) for box, sets in sorted(by_box.items())])
+    atomic_csv(table.round(3), path,
+               f"./holes calibration-report; the shear box's peak shear stress per normal stress and box (mm): its SD "
+               f"over the packings of one parameter set pooled over the checked sets (bench/ and its folders; "
+               f"{', '.join(f'{len(v)} in the {b} mm box' for b, v in sorted(by_box.items()))}), its degrees of "
                "freedom and its share of the mean peak")
+    return path
+
+
+def box_shift(filter_box: pd.DataFrame, check_box: pd.DataFrame) -> pd.DataFrame:
+    """Per bench response, one set's packings read in the filter's box and in the checks' box: each box's mean and SD
+    over its packings and the shift of the mean (checks' − filter's) with its Welch 95 % interval.
+
+    >>> a = pd.DataFrame({"c_kpa": [13.0, 14.0, 15.0], "phi_deg": [34.0, 35.0, 36.0]})
+    >>> b = pd.DataFrame({"c_kpa": [9.5, 10.0, 10.5], "phi_deg": [34.0, 35.0, 36.0]})
+    >>> box_shift(a, b)[["response", "shift", "resolved"]].to_dict(orient="list")
+    {'response': ['c_kpa', 'phi_deg'], 'shift': [-4.0, 0.0], 'resolved': [True, False]}
+    """
+    rows = []
+    for r in [r for r in RESPONSES if r in filter_box and r in check_box]:
+        a, b = (t[r].dropna().to_numpy(float) for t in (filter_box, check_box))
+        if len(a) < 2 or len(b) < 2:
+            continue
+        shift, lo, hi = difference_interval(a, b)
+        rows.append({"response": r, "filter_box_mean": a.mean(), "filter_box_sd": a.std(ddof=1), "filter_box_n": len(a),
+                     "check_box_mean": b.mean(), "check_box_sd": b.std(ddof=1), "check_box_n": len(b),
+                     "shift": shift, "shift_lo": lo, "shift_hi": hi, "resolved": bool(lo > 0 or hi < 0)})
+    return pd.DataFrame(rows)
+
+
+def box_shift_run(out_dir: Path = BENCH_DIR) -> Path | None:
+    """box-shift.csv: `box_shift` of every soil's posterior checked on more packings in both boxes (`<soil>-check-
+    packings.csv` in the checks' box, the same in FILTER_BOX_CHECKS in the filter's); None when no soil has both."""
+    out_dir = Path(out_dir)
+    tables = []
+    for soil in SOILS:
+        paths = [out_dir / FILTER_BOX_CHECKS / f"{soil}-check-packings.csv", out_dir / f"{soil}-check-packings.csv"]
+        if all(p.exists() for p in paths):
+            tables.append(box_shift(*(pd.read_csv(p, comment="#") for p in paths)).assign(soil=soil))
+    if not tables:
+        return None
+    path = out_dir / "box-shift.csv"
+    cfg = load_config()
+    atomic_csv(pd.concat(tables).round(3), path,
+               "./holes calibration-report; each soil's posterior mean on its check packings in the filter's shear box "
+               f"({'x'.join(map(str, cfg['size_mm']))} mm, {FILTER_BOX_CHECKS}/<soil>-check-packings.csv) and in the "
+               f"checks' ({'x'.join(map(str, cfg['check_box_mm']))} mm, <soil>-check-packings.csv): the shift of each "
+               "response's mean with its Welch 95 % interval")
     return path
 
 
