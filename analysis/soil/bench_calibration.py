@@ -1181,12 +1181,12 @@ def soil_evaluations(soil: str, out_dir: Path = BENCH_DIR, box: list | None = No
     found = [t for t in tables if t.exists()]
     if not found:
         return None
-    table = pd.concat([pd.read_csv(t, comment="#") for t in found])
+    table = pd.concat([pd.read_csv(t, comment="#").assign(_table=str(t.relative_to(out_dir))) for t in found])
     table = table.drop_duplicates("id") if "id" in table else table
     if box is not None and "id" in table:
         boxes = [evaluation_box(Path(out_dir) / soil / str(i)) for i in table["id"]]
         table = table[[b is None or b == [float(v) for v in box] for b in boxes]]
-    return table, ", ".join(str(t.relative_to(out_dir)) for t in found)
+    return table.drop(columns="_table"), ", ".join(table["_table"].unique())     # the tables that gave a row
 
 
 def evaluation_box(folder: Path) -> list[float] | None:
