@@ -784,7 +784,6 @@ def test_the_collapse_column_takes_its_own_size_and_names_the_evaluation_only_wh
         bench.load_config(tmp_path / "b.toml")
 
 
-
 def test_the_checks_read_their_own_box_and_take_a_scene_a_twin_already_ran(tmp_path, monkeypatch):
     """A check runs the shear box in [bench] check_box_mm; the collapse column it shares with the filter's box is
     copied from that evaluation of the same set and packing, not run again; a twin whose scene had other inputs (the

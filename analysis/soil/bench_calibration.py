@@ -196,14 +196,13 @@ def from_twin(scene: str, soil: str, seed: int, params: dict, cfg: dict, folder:
         if scene_inputs(scene, twin) != scene_inputs(scene, cfg):
             continue
         source = Path(out_dir) / soil / evaluation_id(soil, seed, params, twin)
-        found = scene_result(source, scene) if source.is_dir() else None
+        found = scene_file(source, scene) if source.is_dir() else None
         if found is None:
             continue
-        for path in sorted(source.glob("*.json")) + [source / f"{scene}.log"]:
-            if path.exists() and path.name != "responses.json" and (path.suffix == ".log" or
-                                                                    SCENE_DETAIL[scene] in json.loads(path.read_text())):
+        for path in (found, source / f"{scene}.log"):
+            if path.exists():
                 atomic_write(folder / path.name, path.read_text())
-        return found
+        return json.loads(found.read_text())
     return None
 
 
@@ -284,17 +283,21 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
 SCENE_DETAIL = {"shear": "tests", "collapse": "profile_mm"}   # what a scene's result file holds beyond its stdout
 
 
-def scene_result(folder: Path, scene: str) -> dict | None:
+def scene_file(folder: Path, scene: str) -> Path | None:
     """A bench scene's result file in an evaluation's folder (the one holding its SCENE_DETAIL: the shear box's
     tests, the collapse's profile), if the scene finished there (it writes the file atomically when it ends); None
     if not. The folder is named by every parameter and setting (`evaluation_id`), so a file in it is this
     evaluation's."""
     for path in sorted(folder.glob("*.json")):
-        if path.name != "responses.json":
-            data = json.loads(path.read_text())
-            if SCENE_DETAIL[scene] in data:
-                return data
+        if path.name != "responses.json" and SCENE_DETAIL[scene] in json.loads(path.read_text()):
+            return path
     return None
+
+
+def scene_result(folder: Path, scene: str) -> dict | None:
+    """The contents of the scene's result file in an evaluation's folder (`scene_file`), None if it has none."""
+    path = scene_file(folder, scene)
+    return json.loads(path.read_text()) if path else None
 
 
 def with_collapse_angle(row: dict, folder: Path) -> dict:
@@ -1191,10 +1194,17 @@ def soil_evaluations(soil: str, out_dir: Path = BENCH_DIR, box: list | None = No
 
 def evaluation_box(folder: Path) -> list[float] | None:
     """The size (mm) of the shear box an evaluation's folder ran, from its result file; None if it holds none."""
-    data = scene_result(folder, "shear") if folder.is_dir() else None
-    if not data or not data.get("tests"):
-        return None
-    return [round(v * 1e3, 3) for v in data["tests"][0]["size_m"]]
+    return shear_box_mm(scene_result(folder, "shear") if folder.is_dir() else None)
+
+
+def shear_box_mm(data: dict | None) -> list[float] | None:
+    """The size (mm) of the shear box a shear result ran; None if it names none.
+
+    >>> shear_box_mm({"tests": [{"size_m": [0.225, 0.225, 0.15]}]}), shear_box_mm({"tests": [{}]})
+    ([225.0, 225.0, 150.0], None)
+    """
+    size = data["tests"][0].get("size_m") if data and data.get("tests") else None
+    return [round(v * 1e3, 3) for v in size] if size else None
 
 
 def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> list[Path]:

@@ -17,7 +17,7 @@ from analysis.core.io import atomic_csv
 from analysis.core.soil_config import SOILS
 from analysis.soil.bench_calibration import (BENCH_DIR, FILTER_BOX_CHECKS, RESPONSES, cone_path, cone_range, difference_interval,
                                              filter_seeds, load_config, mean_verdict, runs_cone, scene_result,
-                                             target_ranges)
+                                             shear_box_mm, target_ranges)
 
 
 def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict]) -> pd.DataFrame:
@@ -227,7 +227,7 @@ def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
         data = [d for d in (scene_result(p, "shear") for p in found if p is not None)
                 if d and d["overrides"].get("bond_fragile") == 0]          # ductile bonds, the model's
         stresses = {tuple(t["stress_kpa"] for t in d["tests"]) for d in data}
-        boxes = {"x".join(f"{v * 1e3:g}" for v in d["tests"][0].get("size_m", [])) for d in data}
+        boxes = {"x".join(f"{v:g}" for v in shear_box_mm(d) or []) for d in data}
         if len(data) >= 3 and len(stresses) == 1 and len(boxes) == 1:
             by_box.setdefault(boxes.pop(), []).append(
                 (list(stresses.pop()), np.array([[t["tau_peak_kpa"] for t in d["tests"]] for d in data])))
