@@ -46,7 +46,8 @@ def cmd_params(args) -> int:
     return 0
 
 
-BENCH_CHECKS = ("--size-check", "--cones", "--probe", "--cone-transfer", "--check-deepest", "--check-packings")
+BENCH_CHECKS = ("--size-check", "--cones", "--probe", "--cone-transfer", "--check-deepest", "--check-packings",
+                "--remeasure")
 
 
 def bench_checks_asked(args) -> list[str]:
@@ -194,13 +195,15 @@ def cmd_calibrate_bench(args) -> int:
         return 2
     if asked:
         import pandas as pd
-        checks = {"--size-check": lambda: bench.size_check(args.soil, cfg).round(2),
+        checks = {"--size-check": lambda: bench.size_check(args.soil, cfg, box=args.size_check).round(2),
                   "--cones": lambda: bench.cones(args.soil, args.cones, cfg, workers=cfg["workers"],
                                                 runs_grains=args.runs_grains),
                   "--probe": lambda: bench.probes(args.soil, args.probe, cfg),
                   "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds, cfg, workers=cfg["workers"]).round(2),
                   "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg)).T,
-                  "--check-packings": lambda: pd.DataFrame(packings_checked(args, cfg)).T}
+                  "--check-packings": lambda: pd.DataFrame(packings_checked(args, cfg)).T,
+                  "--remeasure": lambda: pd.DataFrame({"remeasured": [str(p.relative_to(ROOT))
+                                                                      for p in bench.remeasure(args.soil)]})}
         try:
             table = checks[asked[0]]()
         except ConfigError as e:

@@ -24,6 +24,18 @@ def made_up_bench(p: dict) -> dict:
             "collapse_deg": 0.6 * p["friction_deg"] + 25 * p["pressed_adhesion"] + 20 * p.get("rolling_friction", 0.1)}
 
 
+def shear_box(c: float, phi: float, weight: float = 2.4, size: float = 0.15) -> dict:
+    """A shear box's result file whose tests lie on τ = c + σ tan φ, σ the plane's load (σn and `weight` resting
+    on the plane) over the sheared area at a 30 mm shift."""
+    def test(s):
+        L = 1000 * size
+        sigma = (s + weight) * L / (L - 30.0)
+        return {"size_m": [size] * 2 + [size * 2 / 3], "stress_kpa": s, "shift_at_peak_mm": 30.0,
+                "tau_peak_kpa": c + sigma * math.tan(math.radians(phi)),
+                "curve": [[x, 0.0, 0.0, 0.0, (s + weight) * L / (L - x)] for x in (0.0, 15.0, 30.0)]}
+    return {"c_kpa": c, "phi_deg": phi, "tests": [test(s) for s in (50.0, 100.0, 200.0)]}
+
+
 def around(values: dict, share: float = 0.1) -> dict:
     """Point values as targets: each a range of ± `share` about it."""
     return {r: (v * (1 - share), v * (1 + share)) for r, v in values.items()}
@@ -132,12 +144,14 @@ def test_a_finished_evaluation_is_read_back_never_run_again(tmp_path, monkeypatc
     params = {"normal_cohesion": 30e3, "friction_deg": 25.0, "new_contact_cohesion": 0.5}
     folder = tmp_path / "clay" / bench.evaluation_id("clay", 2, params, cfg)
     folder.mkdir(parents=True)
-    (folder / "responses.json").write_text(json.dumps({"c_kpa": 1.0}))
+    (folder / "responses.json").write_text(json.dumps({"c_kpa": 1.0, "phi_deg": 40.0}))   # what its run read
+    (folder / "box.json").write_text(json.dumps(shear_box(12.0, 30.0)))
     heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]       # 45° from x = 100 mm
     (folder / "bed.json").write_text(json.dumps({"profile_mm": heap}))
     monkeypatch.setattr(runner, "run_process", lambda *a: pytest.fail("a finished evaluation ran again"))
     again = bench.evaluate("clay", 2, params, cfg, tmp_path)
-    assert again["c_kpa"] == 1.0 and again["collapse_deg"] == pytest.approx(45.0, abs=1.0)
+    assert again["c_kpa"] == pytest.approx(12.0) and again["phi_deg"] == pytest.approx(30.0)    # measured again
+    assert again["collapse_deg"] == pytest.approx(45.0, abs=1.0)
     assert bench.evaluation_id("clay", 2, {**params, "friction_deg": 25.000001}, cfg) == folder.name
     assert bench.evaluation_id("clay", 3, params, cfg) != folder.name
 
@@ -149,7 +163,7 @@ def test_an_evaluation_stopped_between_its_tests_reruns_only_the_one_it_lacks(tm
     params = {"normal_cohesion": 9e4, "friction_deg": 9.0, "pressed_adhesion": 0.1, "rolling_friction": 0.3}
     folder = tmp_path / "clay" / bench.evaluation_id("clay", 1, params, cfg)
     folder.mkdir(parents=True)
-    (folder / "box.json").write_text(json.dumps({"c_kpa": 22.5, "phi_deg": 28.1, "tests": [{"tau_peak_kpa": 60.0}]}))
+    (folder / "box.json").write_text(json.dumps(shear_box(22.5, 28.1)))
     ran = []
 
     def fake(cmd, sink):
@@ -160,7 +174,8 @@ def test_an_evaluation_stopped_between_its_tests_reruns_only_the_one_it_lacks(tm
     monkeypatch.setattr(runner, "run_process", fake)
     row = bench.evaluate("clay", 1, params, cfg, tmp_path)
     assert ran == ["collapse"] and row["resumed"] == "shear"
-    assert (row["c_kpa"], row["phi_deg"], row["tau_peak_kpa"]) == (22.5, 28.1, [60.0])
+    assert (row["c_kpa"], row["phi_deg"]) == (pytest.approx(22.5), pytest.approx(28.1))
+    assert row["tau_peak_kpa"] == [t["tau_peak_kpa"] for t in shear_box(22.5, 28.1)["tests"]]
     assert row["collapse_deg"] == pytest.approx(45.0, abs=1.0)
 
 
@@ -464,7 +479,7 @@ def test_workers_sets_how_many_bench_scenes_run_at_a_time_else_the_config_does(m
     workers."""
     from analysis.cli import main
     seen = []
-    monkeypatch.setattr(bench, "size_check", lambda soil, cfg: seen.append(cfg["workers"]) or pd.DataFrame())
+    monkeypatch.setattr(bench, "size_check", lambda soil, cfg, box: seen.append(cfg["workers"]) or pd.DataFrame())
     assert main(["calibrate", "--soil", "clay", "--bench", "--size-check", "--workers", "1"]) == 0
     assert main(["calibrate", "--soil", "clay", "--bench", "--size-check"]) == 0
     assert seen == [1, bench.load_config(soil="clay")["workers"]]
@@ -769,10 +784,12 @@ def test_the_collapse_column_takes_its_own_size_and_names_the_evaluation_only_wh
         scene = Path(cmd[1]).stem
         sizes[scene] = cmd[cmd.index("--size") + 1]
         out = {"shear": {"c_kpa": 1.0, "phi_deg": 30.0}, "collapse": {"runout_mm": 100.0}}[scene]
+        folder = Path(cmd[cmd.index("--out") + 1])
         if scene == "collapse":
             heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
-            folder = Path(cmd[cmd.index("--out") + 1])
             (folder / "column.json").write_text(json.dumps({"profile_mm": heap}))
+        else:
+            (folder / "box.json").write_text(json.dumps(shear_box(1.0, 30.0)))
         return 0, json.dumps(out)
     monkeypatch.setattr(runner, "run_process", fake)
     row = bench.evaluate("clay", 1, params, tall, tmp_path)
@@ -798,16 +815,18 @@ def test_the_checks_read_their_own_box_and_take_a_scene_a_twin_already_ran(tmp_p
     filter_box = tmp_path / "clay" / bench.evaluation_id("clay", 1, params, cfg)
     filter_box.mkdir(parents=True)
     (filter_box / "column.json").write_text(json.dumps({"profile_mm": heap, "runout_mm": 90.0}))
-    (filter_box / "box.json").write_text(json.dumps({"c_kpa": 30.0, "phi_deg": 25.0, "tests": [{"tau_peak_kpa": 9.0}]}))
+    (filter_box / "box.json").write_text(json.dumps(shear_box(30.0, 25.0)))
     ran = []
 
     def fake(cmd, sink):
         ran.append((Path(cmd[1]).stem, cmd[cmd.index("--size") + 1]))
-        return 0, json.dumps({"c_kpa": 22.0, "phi_deg": 28.0})
+        box = shear_box(22.0, 28.0, size=0.225)
+        (Path(cmd[cmd.index("--out") + 1]) / "box.json").write_text(json.dumps(box))
+        return 0, json.dumps({k: box[k] for k in ("c_kpa", "phi_deg")})
     monkeypatch.setattr(runner, "run_process", fake)
     row = bench.evaluate("clay", 1, params, checks, tmp_path)
     assert ran == [("shear", ",".join(map(str, cfg["check_box_mm"])))]
-    assert (row["c_kpa"], row["resumed"]) == (22.0, "collapse (a twin's)")
+    assert (row["c_kpa"], row["resumed"]) == (pytest.approx(22.0), "collapse (a twin's)")
     assert row["collapse_deg"] == pytest.approx(45.0, abs=1.0) and row["collapse_runout_mm"] == 90.0
     grown = bench.grown_bench(cfg)
     assert bench.scene_inputs("collapse", grown) != bench.scene_inputs("collapse", checks)

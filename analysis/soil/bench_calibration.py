@@ -93,6 +93,11 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
     if grown is not None and (len(grown) != 3 or any(float(g) <= float(b) for g, b in zip(grown, bench["size_mm"]))):
         raise ConfigError(f"{path}: bench.size_check_mm = {grown}: allowed three lengths, each above size_mm's "
                           f"{bench['size_mm']}")
+    grown_check = bench.get("check_size_check_mm")
+    if grown_check is not None and (box is None or len(grown_check) != 3
+                                    or any(float(g) <= float(b) for g, b in zip(grown_check, box))):
+        raise ConfigError(f"{path}: bench.check_size_check_mm = {grown_check}: allowed three lengths, each above "
+                          f"check_box_mm's {box}")
     if soil is not None:
         bounds.update(per_soil.get(soil, {}))
     if len(bounds) < 3:
@@ -240,7 +245,7 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
     done = folder / "responses.json"
     if done.exists():
         row = json.loads(done.read_text())
-        return row if row.get("failed") else with_collapse_angle(row, folder)
+        return row if row.get("failed") else measured(row, folder)
     folder.mkdir(parents=True, exist_ok=True)
     common = ["--soil", soil, "--resolution", cfg["resolution"], "--seed", str(seed), "--threads", "1",
               "--out", str(folder)]
@@ -277,7 +282,7 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
     if resumed:
         row["resumed"] = ", ".join(resumed)
     atomic_write(done, json.dumps(row, indent=1))
-    return with_collapse_angle(row, folder)
+    return measured(row, folder)
 
 
 SCENE_DETAIL = {"shear": "tests", "collapse": "profile_mm"}   # what a scene's result file holds beyond its stdout
@@ -294,20 +299,30 @@ def scene_file(folder: Path, scene: str) -> Path | None:
     return None
 
 
+def kept(folder: Path) -> bool:
+    """Whether an evaluation's folder holds both its scenes' result files (a folder another machine did not send
+    holds neither)."""
+    return folder.is_dir() and all(scene_file(folder, scene) for scene in SCENE_DETAIL)
+
+
 def scene_result(folder: Path, scene: str) -> dict | None:
     """The contents of the scene's result file in an evaluation's folder (`scene_file`), None if it has none."""
     path = scene_file(folder, scene)
     return json.loads(path.read_text()) if path else None
 
 
-def with_collapse_angle(row: dict, folder: Path) -> dict:
-    """The evaluation's collapse slope, measured from its stored profile (analysis/soil/collapse.py) each time it is
-    read, so a finished evaluation is measured the way the current code measures."""
+def measured(row: dict, folder: Path) -> dict:
+    """The evaluation's responses measured from its stored scene results each time it is read: c and φ fitted to the
+    shear box's tests (analysis/soil/shear.py), the collapse slope from the column's profile
+    (analysis/soil/collapse.py). A finished evaluation is so measured the way the current code measures; its
+    responses.json keeps what its run read."""
     from analysis.soil.collapse import profile_angle
-    data = scene_result(folder, "collapse")
-    if data is None:
-        raise RuntimeError(f"{folder}: no collapse profile")
-    return {**row, "collapse_deg": profile_angle(data["profile_mm"])}
+    from analysis.soil.shear import fit_tests
+    box, column = scene_result(folder, "shear"), scene_result(folder, "collapse")
+    if box is None or column is None:
+        raise RuntimeError(f"{folder}: no {'shear box tests' if box is None else 'collapse profile'}")
+    fit = fit_tests(box["tests"])
+    return {**row, "c_kpa": fit["c_kpa"], "phi_deg": fit["phi_deg"], "collapse_deg": profile_angle(column["profile_mm"])}
 
 
 def _shear_peaks(folder: Path) -> list[float]:
@@ -506,11 +521,25 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
     table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
     path = Path(out_dir) / f"{soil}-{label}.csv"
     atomic_csv(after_earlier(table, path) if keep_earlier else table, path)
-    out = {}
     ranges = target_ranges(soil, cfg)
     if not cone:
         ranges.pop("cone_kpa", None)
+    out = judged(table, ranges)
+    if cone and "cone_check" in cfg and "cone_kpa" not in out:
+        out["cone_kpa"] = cone_check(soil, params, cfg, out_dir)
+    atomic_write(Path(out_dir) / f"{soil}-{label}.json", json.dumps(out, indent=1))
+    return out
+
+
+def judged(table: pd.DataFrame, ranges: dict) -> dict:
+    """A check's verdicts: per response of `ranges` ({response: (lo, hi)}) in the table (one row a packing), the mean
+    over packings, their SD, whether every packing and whether the mean lies inside the range, and the mean's
+    interval's verdict (`mean_verdict`) over the packings whose test ran to its end: `failed_packings` counts those
+    its scene stopped (a heap still flowing), and with any of them no verdict is "inside"."""
+    out = {}
     for r, (lo, hi) in ranges.items():
+        if r not in table:
+            continue
         v = table[r].to_numpy(float)
         failed, v = int(np.isnan(v).sum()), v[np.isfinite(v)]      # a test its scene stopped reads nothing
         verdict = mean_verdict(v, lo, hi)
@@ -519,10 +548,41 @@ def check(soil: str, post: dict, cfg: dict | None = None, out_dir: Path = BENCH_
         out[r] = {"mean": float(v.mean()) if len(v) else math.nan, "sd": float(v.std(ddof=1)) if len(v) > 1 else math.nan,
                   "target": [lo, hi], "every_packing_inside": bool(not failed and np.all((v >= lo) & (v <= hi))),
                   "mean_inside": bool(len(v) and lo <= v.mean() <= hi), "failed_packings": failed, **verdict}
-    if cone and "cone_check" in cfg and "cone_kpa" not in out:
-        out["cone_kpa"] = cone_check(soil, params, cfg, out_dir)
-    atomic_write(Path(out_dir) / f"{soil}-{label}.json", json.dumps(out, indent=1))
     return out
+
+
+def remeasure(soil: str, out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
+    """Every kept check of the soil (CHECK_TABLES and its deepest sets' three-packing checks, in out_dir and in
+    FILTER_BOX_CHECKS) measured again from its evaluations' stored scene results (`measured`) and judged again
+    (`judged`; a table holding several sets judges its last, as its check did); the posterior's checks recorded
+    again in the soil's config (`record_packings`; `config`: another file). Nothing runs: a changed measurement
+    reaches every check this way. Returns the tables rewritten."""
+    cfg = load_config(soil=soil)
+    params = list(cfg["bounds"]) + list(cfg.get("fixed", {}))
+    done = []
+    for folder in (Path(out_dir), Path(out_dir) / FILTER_BOX_CHECKS):
+        for part in (*CHECK_TABLES, "-deepest-check"):
+            path = folder / f"{soil}{part}.csv"
+            if not path.exists():
+                continue
+            table = pd.read_csv(path, comment="#", float_precision="round_trip")     # its parameters as written
+            rows = [row if isinstance(row.get("failed"), str) else measured(row, Path(out_dir) / soil / row["id"])
+                    for row in table.to_dict(orient="records")]
+            table = pd.DataFrame(rows)[table.columns]
+            atomic_csv(table, path)
+            verdicts = path.with_suffix(".json")
+            if verdicts.exists():
+                named = [p for p in params if p in table]
+                last = table[(table[named] == table[named].iloc[-1]).all(axis=1)] if named else table
+                old = json.loads(verdicts.read_text())
+                old.update(judged(last, {r: old[r]["target"] for r in RESPONSES if r in old}))
+                atomic_write(verdicts, json.dumps(old, indent=1))
+            done.append(path)
+    packings = Path(out_dir) / f"{soil}-check-packings.json"
+    if packings.exists() and (Path(out_dir) / f"{soil}-check.json").exists():
+        seeds = pd.read_csv(Path(out_dir) / f"{soil}-check-packings.csv", comment="#")["seed"].astype(int).tolist()
+        record_packings(soil, json.loads(packings.read_text()), seeds, out_dir, config)
+    return done
 
 
 def mean_verdict(values, lo: float, hi: float, level: float = 0.95) -> dict:
@@ -618,26 +678,53 @@ def deepest_set(soil: str, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
     return {n: float(table.loc[soil, n]) for n in cfg["bounds"]}
 
 
-def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
+SIZE_CHECKS = ("filter", "checks")       # the box a size check grows: the filter's shear box, or the checks'
+
+
+def size_check_boxes(cfg: dict, box: str = "filter") -> tuple[dict, dict, str]:
+    """The bench settings of a size check's configured and grown box, and its table's name. "filter": the filter's
+    shear box and collapse column ([bench] size_mm, collapse_size_mm) and both grown by half (size_check_mm);
+    "checks": the checks' shear box (check_box_mm) and one grown by half (check_size_check_mm), the collapse column
+    kept (sized on its own), so the grown box's column is its twins'.
+
+    >>> cfg = {"size_mm": [150, 150, 100], "collapse_size_mm": [225, 225, 150], "check_box_mm": [225, 225, 150],
+    ...        "size_check_mm": [225, 225, 150], "check_size_check_mm": [338, 338, 225]}
+    >>> base, grown, name = size_check_boxes(cfg, "checks")
+    >>> base["size_mm"], grown["size_mm"], grown["collapse_size_mm"], name
+    ([225, 225, 150], [338, 338, 225], [225, 225, 150], 'check-box-size')
+    """
+    if box not in SIZE_CHECKS:
+        raise ConfigError(f"--size-check {box}: allowed {' or '.join(SIZE_CHECKS)}")
+    key = "size_check_mm" if box == "filter" else "check_size_check_mm"
+    if key not in cfg or (box == "checks" and "check_box_mm" not in cfg):
+        raise ConfigError(f"{CONFIG}: [bench] lacks {key} (the grown box, mm)")
+    if box == "filter":
+        return cfg, grown_bench(cfg), "size"
+    checks = checks_bench(cfg)
+    grown = {**checks, "size_mm": list(cfg[key]), "twins": [checks, *checks.get("twins", [])]}
+    return checks, grown, "check-box-size"
+
+
+def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR, box: str = "filter") -> pd.DataFrame:
     """The bench's size check at the soil's posterior mean (<out_dir>/<soil>-posterior.json): its responses on the
-    check packings in the filter's box and collapse column ([bench] size_mm and collapse_size_mm) and
-    in one grown by half each way (size_check_mm). Writes <soil>-size.csv (every evaluation) and returns the
-    verdict per response (`size_verdict`)."""
+    check packings in the configured box and in one grown by half each way (`size_check_boxes`: the filter's box
+    or the checks'). Writes <soil>-size.csv (the checks' box: <soil>-check-box-size.csv; every evaluation) and
+    returns the verdict per response (`size_verdict`)."""
     cfg = cfg or load_config(soil=soil)
-    if "size_check_mm" not in cfg:
-        raise ConfigError(f"{CONFIG}: [bench] lacks size_check_mm (the grown box, mm)")
+    configured, grown, name = size_check_boxes(cfg, box)
     params = posterior_mean(soil, out_dir)
     seeds = [int(s) for s in cfg["check_seeds"]]
-    boxes = {"configured": cfg, "grown": grown_bench(cfg)}
-    jobs = [(name, box, s) for name, box in boxes.items() for s in seeds]
-    rows = evaluate_all(soil, [(s, params) for _, _, s in jobs], cfg, out_dir, cfgs=[box for _, box, _ in jobs])
-    table = pd.DataFrame([{"box": name, "size_mm": "x".join(f"{v:g}" for v in box["size_mm"]), **row}
-                          for (name, box, _), row in zip(jobs, rows)]).drop(columns=["tau_peak_kpa"], errors="ignore")
-    atomic_csv(table, Path(out_dir) / f"{soil}-size.csv",
-               f"./holes calibrate --soil {soil} --bench --size-check; {soil}'s posterior mean on packings "
-               f"{','.join(map(str, seeds))} in the configured box and one grown by half")
+    boxes = {"configured": configured, "grown": grown}
+    jobs = [(label, settings, s) for label, settings in boxes.items() for s in seeds]
+    rows = evaluate_all(soil, [(s, params) for _, _, s in jobs], cfg, out_dir, cfgs=[b for _, b, _ in jobs])
+    table = pd.DataFrame([{"box": label, "size_mm": "x".join(f"{v:g}" for v in settings["size_mm"]), **row}
+                          for (label, settings, _), row in zip(jobs, rows)]).drop(columns=["tau_peak_kpa"], errors="ignore")
+    flag = "--size-check" + ("" if box == "filter" else f" {box}")
+    atomic_csv(table, Path(out_dir) / f"{soil}-{name}.csv",
+               f"./holes calibrate --soil {soil} --bench {flag}; {soil}'s posterior mean on packings "
+               f"{','.join(map(str, seeds))} in the {'filter' if box == 'filter' else 'checks'}' box and one grown by half")
     verdict = size_verdict(table)
-    atomic_write(Path(out_dir) / f"{soil}-size.json", json.dumps(verdict.to_dict(orient="records"), indent=1))
+    atomic_write(Path(out_dir) / f"{soil}-{name}.json", json.dumps(verdict.to_dict(orient="records"), indent=1))
     return verdict
 
 
@@ -797,7 +884,7 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
         if not row or row.get("failed"):
             raise ConfigError(f"--cones: {i}: no finished evaluation of {soil} in {Path(out_dir) / soil}; allowed the "
                               "ids of its folders with a responses.json")
-        rows.append(with_collapse_angle(row, done.parent))
+        rows.append(measured(row, done.parent))
     names = list(cfg["bounds"])
 
     def one(row):
@@ -1173,10 +1260,11 @@ FILTER_BOX_CHECKS = "filter-box"    # the posteriors' checks read in the filter'
 
 def soil_evaluations(soil: str, out_dir: Path = BENCH_DIR, box: list | None = None) -> tuple[pd.DataFrame, str] | None:
     """A soil's filter's and checks' evaluations as one table, each evaluation once (its first row: the three-packing
-    check's, with its cone), and where they come from: its finished filter (<soil>.csv) with its posterior's checks on
-    three and more packings and its deepest sets' on more (CHECK_TABLES, in out_dir and in FILTER_BOX_CHECKS), or
-    while its filter runs, the iterations it has finished (<soil>-running.csv); None when it has neither. `box`: only
-    the evaluations whose shear box had this size (mm; `evaluation_box`), those of unknown box kept."""
+    check's, with its cone) and measured from its stored results (`measured`), and where they come from: its
+    finished filter (<soil>.csv) with its posterior's checks on three and more packings and its deepest sets' on more
+    (CHECK_TABLES, in out_dir and in FILTER_BOX_CHECKS), or while its filter runs, the iterations it has finished
+    (<soil>-running.csv); None when it has neither. `box`: only the evaluations whose shear box had this size (mm;
+    `evaluation_box`), those of unknown box kept."""
     tables = [Path(out_dir) / f"{soil}{part}.csv" for part in ("", *CHECK_TABLES)]
     tables += [Path(out_dir) / FILTER_BOX_CHECKS / f"{soil}{part}.csv" for part in CHECK_TABLES]
     if not tables[0].exists():
@@ -1186,6 +1274,10 @@ def soil_evaluations(soil: str, out_dir: Path = BENCH_DIR, box: list | None = No
         return None
     table = pd.concat([pd.read_csv(t, comment="#").assign(_table=str(t.relative_to(out_dir))) for t in found])
     table = table.drop_duplicates("id") if "id" in table else table
+    if "id" in table:                       # each measured as the current code measures (the filter's table keeps
+        folders = [Path(out_dir) / soil / str(i) for i in table["id"]]     # what the filter weighed)
+        table = pd.DataFrame([measured(row, f) if kept(f) and not isinstance(row.get("failed"), str) else row
+                              for row, f in zip(table.to_dict(orient="records"), folders)])
     if box is not None and "id" in table:
         boxes = [evaluation_box(Path(out_dir) / soil / str(i)) for i in table["id"]]
         table = table[[b is None or b == [float(v) for v in box] for b in boxes]]

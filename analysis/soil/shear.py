@@ -1,6 +1,7 @@
 """The direct shear box's Mohr-Coulomb fit (scripts/shear.py runs the box; no YADE here).
 
-τ_peak = c + σn·tan φ, least squares over the normal stresses, with the 95 % intervals of c and φ (Student t
+τ_peak = c + σ·tan φ, least squares over the normal stresses, σ the normal stress the plane carries at the peak
+(the lid's load and the weight resting on the plane, over the sheared area), with the 95 % intervals of c and φ (Student t
 on n - 2 degrees of freedom; none from two points).
 """
 from __future__ import annotations
@@ -10,20 +11,37 @@ import math
 import numpy as np
 
 
-def sheared_stress(test: dict) -> float:
-    """The normal stress on the sheared area at a test's peak (kPa): the load over what is left of the plane
-    once the halves have shifted, σn·L / (L − shift at the peak)."""
+def plane_load(test: dict) -> float:
+    """The normal load the grains carry across the shear plane over the box's whole area (kPa): the median, over the
+    test's curve, of the plane's normal stress times the share of the plane still sheared, (L − shift) / L. It is the
+    lid's dead load σn and what else rests on the plane, the lid's own weight and the soil above the plane: about
+    2.4 kPa more than σn at r = 6 mm in the 225 mm box, at every σn.
+
+    >>> curve = [[s, 0.0, 0.0, 0.0, 52.4 * 150 / (150 - s)] for s in (0, 10, 20, 30)]
+    >>> round(plane_load({"size_m": [0.15], "curve": curve}), 2)
+    52.4
+    """
     length_mm = 1000 * test["size_m"][0]
-    return test["stress_kpa"] * length_mm / (length_mm - test["shift_at_peak_mm"])
+    curve = np.asarray(test["curve"], float)
+    return float(np.median(curve[:, 4] * (length_mm - curve[:, 0]) / length_mm))
+
+
+def sheared_stress(test: dict) -> float:
+    """The normal stress on the sheared area at a test's peak (kPa): the plane's load (`plane_load`) over what is left
+    of the plane once the halves have shifted, P·L / (L − shift at the peak). A laboratory counts its loading cap's
+    weight in the normal load the same way."""
+    length_mm = 1000 * test["size_m"][0]
+    return plane_load(test) * length_mm / (length_mm - test["shift_at_peak_mm"])
 
 
 def fit_tests(tests: list[dict]) -> dict:
-    """The Mohr-Coulomb fit of a shear box's tests: each peak shear stress against the normal stress on the
-    sheared area at that peak (both over the same area).
+    """The Mohr-Coulomb fit of a shear box's tests: each peak shear stress (the frames' push over the sheared area)
+    against the normal stress on the sheared area at that peak (`sheared_stress`).
 
-    >>> t = [{"size_m": [0.15], "stress_kpa": s, "shift_at_peak_mm": 30.0, "tau_peak_kpa": 20 + 0.6 * s * 1.25}
-    ...      for s in (50, 100, 200)]
-    >>> r = fit_tests(t)
+    >>> def test(s, w=2.4):
+    ...     return {"size_m": [0.15], "stress_kpa": s, "shift_at_peak_mm": 30.0, "tau_peak_kpa": 20 + 0.6 * (s + w) * 1.25,
+    ...             "curve": [[x, 0.0, 0.0, 0.0, (s + w) * 150 / (150 - x)] for x in (0, 15, 30)]}
+    >>> r = fit_tests([test(s) for s in (50, 100, 200)])
     >>> round(r["c_kpa"], 2), round(r["phi_deg"], 2)
     (20.0, 30.96)
     """
