@@ -1168,3 +1168,65 @@ def test_a_check_reads_a_packing_whose_scene_stopped_as_failed_and_calls_no_resp
     assert c["failed_packings"] == 1 and c["mean"] == pytest.approx(6.2) and math.isfinite(c["mean_interval"][0])
     assert c["mean_verdict"] == "undecided" and not c["every_packing_inside"]
     assert json.loads((tmp_path / "sand-check-packings.json").read_text())["collapse_deg"]["failed_packings"] == 1
+
+
+def test_the_box_reads_c_against_the_load_the_plane_carries():
+    """The lid's own weight and the soil above the plane load it besides σn: a fit on σn alone would read c higher by
+    tan φ × that weight over the sheared area; the plane's load, measured from the curve, takes it back."""
+    from analysis.soil.shear import fit_tests, plane_load
+    box = shear_box(5.0, 30.0, weight=3.0)
+    assert plane_load(box["tests"][0]) == pytest.approx(53.0)
+    assert fit_tests(box["tests"])["c_kpa"] == pytest.approx(5.0)
+    on_the_lid = [{**t, "curve": [[x, 0, 0, 0, t["stress_kpa"] * 150 / (150 - x)] for x, *_ in t["curve"]]}
+                  for t in box["tests"]]
+    assert fit_tests(on_the_lid)["c_kpa"] == pytest.approx(5.0 + 3.0 * 150 / 120 * math.tan(math.radians(30.0)))
+
+
+def test_remeasure_reads_every_kept_check_again_and_records_the_posteriors(tmp_path):
+    """`remeasure`: a check table's responses measured again from its evaluations' stored results and its verdicts
+    judged again, in bench/ and in a folder of it; an evaluation not kept here keeps its row; the nine-packing
+    verdict reaches the soil's config; the filter's own table is left as the filter weighed it."""
+    from analysis.core.schema import read_toml
+    heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]       # 45° from x = 100 mm
+    params = {"normal_cohesion": 1e5, "friction_deg": 10.0, "pressed_adhesion": 0.1, "rolling_friction": 0.2,
+              "damping": 0.1}
+    rows = []
+    for seed in (1, 2, 3, 4):
+        folder = tmp_path / "clay" / f"s{seed}"
+        if seed < 4:                                   # packing 4's folder is another machine's
+            folder.mkdir(parents=True)
+            (folder / "box.json").write_text(json.dumps(shear_box(20.0 + seed, 27.0)))
+            (folder / "column.json").write_text(json.dumps({"profile_mm": heap}))
+        rows.append({"id": f"s{seed}", "soil": "clay", "seed": seed, **params, "c_kpa": 40.0, "phi_deg": 20.0,
+                     "collapse_deg": 30.0})
+    table = pd.DataFrame(rows)
+    for path in (tmp_path / "clay-check-packings.csv", tmp_path / "filter-box" / "clay-check.csv", tmp_path / "clay.csv"):
+        path.parent.mkdir(exist_ok=True)
+        table.to_csv(path, index=False)
+    table[:3].to_csv(tmp_path / "clay-check.csv", index=False)
+    stale = {r: {"mean": 0.0, "target": t} for r, t in (("c_kpa", [20, 35]), ("phi_deg", [20, 30]),
+                                                        ("collapse_deg", [30, 38]))}
+    (tmp_path / "clay-check-packings.json").write_text(json.dumps(stale))
+    cone = {"mean": 450.0, "sd": 1.0, "target": [382.5, 517.5], "every_packing_inside": True, "mean_inside": True}
+    (tmp_path / "clay-check.json").write_text(json.dumps({**stale, "cone_kpa": cone}))
+    (tmp_path / "clay-posterior.json").write_text(json.dumps({
+        "names": list(params), "mean": params, "interval": {k: [v, v] for k, v in params.items()},
+        "correlation": {a: {b: 0.0 for b in params} for a in params}}))
+    config = tmp_path / "clay.toml"
+    config.write_text((bench.ROOT / "configs/soils/clay.toml").read_text())
+    done = bench.remeasure("clay", tmp_path, config)
+    assert sorted(p.relative_to(tmp_path).as_posix() for p in done) == ["clay-check-packings.csv", "clay-check.csv",
+                                                                         "filter-box/clay-check.csv"]
+    three = json.loads((tmp_path / "clay-check.json").read_text())
+    assert three["c_kpa"]["every_packing_inside"] is True and three["cone_kpa"] == cone
+    for path in done:
+        again = pd.read_csv(path)
+        assert again["c_kpa"].tolist() == pytest.approx([21.0, 22.0, 23.0, 40.0][:len(again)])
+        assert again["phi_deg"].tolist()[:3] == pytest.approx([27.0] * 3)
+        assert again["collapse_deg"].tolist()[:3] == pytest.approx([45.0] * 3, abs=1.0)
+    verdict = json.loads((tmp_path / "clay-check-packings.json").read_text())
+    assert verdict["c_kpa"]["mean"] == pytest.approx((21 + 22 + 23 + 40) / 4)
+    assert verdict["c_kpa"]["every_packing_inside"] is False
+    assert pd.read_csv(tmp_path / "clay.csv")["c_kpa"].tolist() == [40.0] * 4          # what the filter weighed
+    line = read_toml(config)["bench_posterior"]["check_packings"]
+    assert line["seeds"] == [1, 2, 3, 4] and line["c_kpa"].startswith(verdict["c_kpa"]["mean_verdict"])

@@ -552,22 +552,27 @@ def judged(table: pd.DataFrame, ranges: dict) -> dict:
 
 
 def remeasure(soil: str, out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
-    """Every kept check of the soil (CHECK_TABLES and its deepest sets' three-packing checks, in out_dir and in
-    FILTER_BOX_CHECKS) measured again from its evaluations' stored scene results (`measured`) and judged again
+    """Every kept check of the soil (CHECK_TABLES and its deepest sets' three-packing checks, in out_dir and in each
+    folder of it that holds one: FILTER_BOX_CHECKS, the earlier calibrations') measured again from its evaluations'
+    stored scene results (`measured`; an evaluation whose folder is not kept here keeps its row) and judged again
     (`judged`; a table holding several sets judges its last, as its check did); the posterior's checks recorded
     again in the soil's config (`record_packings`; `config`: another file). Nothing runs: a changed measurement
-    reaches every check this way. Returns the tables rewritten."""
+    reaches every check this way. The filters' own tables keep what the filters weighed. Returns the tables
+    rewritten."""
     cfg = load_config(soil=soil)
     params = list(cfg["bounds"]) + list(cfg.get("fixed", {}))
     done = []
-    for folder in (Path(out_dir), Path(out_dir) / FILTER_BOX_CHECKS):
+    folders = [Path(out_dir), *sorted(d for d in Path(out_dir).iterdir() if d.is_dir() and d.name != soil)]
+    for folder in folders:
         for part in (*CHECK_TABLES, "-deepest-check"):
             path = folder / f"{soil}{part}.csv"
             if not path.exists():
                 continue
             table = pd.read_csv(path, comment="#", float_precision="round_trip")     # its parameters as written
-            rows = [row if isinstance(row.get("failed"), str) else measured(row, Path(out_dir) / soil / row["id"])
-                    for row in table.to_dict(orient="records")]
+            if "id" not in table:
+                continue
+            rows = [measured(row, f) if kept(f := Path(out_dir) / soil / str(row["id"]))
+                    and not isinstance(row.get("failed"), str) else row for row in table.to_dict(orient="records")]
             table = pd.DataFrame(rows)[table.columns]
             atomic_csv(table, path)
             verdicts = path.with_suffix(".json")
