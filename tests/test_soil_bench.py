@@ -268,6 +268,7 @@ def test_the_calibration_writes_its_posterior_and_checks_it_on_every_packing(tmp
     assert post["correlation"]["friction_deg"]["friction_deg"] == pytest.approx(1.0)
     written = json.loads((tmp_path / "clay-posterior.json").read_text())
     assert written["mean"] == post["mean"] and written["packing_scatter"] == cfg["packing_scatter"]
+    assert written["shear_reading"] == "plane load"
     floor = sigma_floor(bench.target_ranges("clay", cfg), cfg["packing_scatter"])
     assert len(written["likelihood_sigma"]) == 2 and min(written["likelihood_sigma"]) >= floor * (1 - 1e-9)
     result = bench.check("clay", post, cfg, tmp_path)

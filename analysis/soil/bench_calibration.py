@@ -30,6 +30,7 @@ from analysis.core.io import atomic_csv, atomic_write, say
 from analysis.core.runner import run_logged
 from analysis.core.schema import ROOT, ConfigError
 from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS
+from analysis.soil.shear import READING, fit_tests
 
 CONFIG = ROOT / "configs/bench_calibration.toml"
 TARGETS = ROOT / "configs/field/soil_targets.csv"
@@ -317,7 +318,6 @@ def measured(row: dict, folder: Path) -> dict:
     (analysis/soil/collapse.py). A finished evaluation is so measured the way the current code measures; its
     responses.json keeps what its run read."""
     from analysis.soil.collapse import profile_angle
-    from analysis.soil.shear import fit_tests
     box, column = scene_result(folder, "shear"), scene_result(folder, "collapse")
     if box is None or column is None:
         raise RuntimeError(f"{folder}: no {'shear box tests' if box is None else 'collapse profile'}")
@@ -426,6 +426,7 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     summary["fixed"] = dict(cfg.get("fixed", {}))
     summary["likelihood_sigma"] = post["sigma"]
     summary["packing_scatter"] = dict(cfg.get("packing_scatter", {}))
+    summary["shear_reading"] = READING      # without it: drawn on the lid's load alone
     summary["prior"] = {k: list(v) for k, v in cfg["bounds"].items()}
     summary["interval"] = weighted_intervals(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
     summary["correlation"] = weighted_correlation(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())

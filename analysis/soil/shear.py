@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+READING = "plane load"     # the normal stress c and φ are fitted against (`sheared_stress`); a posterior records it
+
 
 def plane_load(test: dict) -> float:
     """The normal load the grains carry across the shear plane over the box's whole area (kPa): the median, over the
