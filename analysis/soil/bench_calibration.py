@@ -553,19 +553,19 @@ def judged(table: pd.DataFrame, ranges: dict) -> dict:
 
 
 def remeasure(soil: str, out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
-    """Every kept check of the soil (CHECK_TABLES and its deepest sets' three-packing checks, in out_dir and in each
-    folder of it that holds one: FILTER_BOX_CHECKS, the earlier calibrations') measured again from its evaluations'
-    stored scene results (`measured`; an evaluation whose folder is not kept here keeps its row) and judged again
-    (`judged`; a table holding several sets judges its last, as its check did); the posterior's checks recorded
-    again in the soil's config (`record_packings`; `config`: another file). Nothing runs: a changed measurement
-    reaches every check this way. The filters' own tables keep what the filters weighed. Returns the tables
-    rewritten."""
+    """Every kept check of the soil (CHECK_TABLES, its deepest sets' three-packing checks and its size checks, in
+    out_dir and in each folder of it that holds one: FILTER_BOX_CHECKS, the earlier calibrations') measured again
+    from its evaluations' stored scene results (`measured`; an evaluation whose folder is not kept here keeps its
+    row) and judged again (`judged`, a table holding several sets judging its last, as its check did; a size check by
+    `size_verdict`); the posterior's checks recorded again in the soil's config (`record_packings`; `config`: another
+    file). Nothing runs: a changed measurement reaches every check this way. The filters' own tables keep what the
+    filters weighed. Returns the tables rewritten."""
     cfg = load_config(soil=soil)
     params = list(cfg["bounds"]) + list(cfg.get("fixed", {}))
     done = []
     folders = [Path(out_dir), *sorted(d for d in Path(out_dir).iterdir() if d.is_dir() and d.name != soil)]
     for folder in folders:
-        for part in (*CHECK_TABLES, "-deepest-check"):
+        for part in (*CHECK_TABLES, "-deepest-check", *SIZE_TABLES):
             path = folder / f"{soil}{part}.csv"
             if not path.exists():
                 continue
@@ -575,9 +575,12 @@ def remeasure(soil: str, out_dir: Path = BENCH_DIR, config: Path | None = None) 
             rows = [measured(row, f) if kept(f := Path(out_dir) / soil / str(row["id"]))
                     and not isinstance(row.get("failed"), str) else row for row in table.to_dict(orient="records")]
             table = pd.DataFrame(rows)[table.columns]
-            atomic_csv(table, path)
+            head = path.read_text().splitlines()[0]
+            atomic_csv(table, path, head[1:].strip() if head.startswith("#") else None)
             verdicts = path.with_suffix(".json")
-            if verdicts.exists():
+            if part in SIZE_TABLES:
+                atomic_write(verdicts, json.dumps(size_verdict(table).to_dict(orient="records"), indent=1))
+            elif verdicts.exists():
                 named = [p for p in params if p in table]
                 last = table[(table[named] == table[named].iloc[-1]).all(axis=1)] if named else table
                 old = json.loads(verdicts.read_text())
@@ -685,6 +688,7 @@ def deepest_set(soil: str, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
 
 
 SIZE_CHECKS = ("filter", "checks")       # the box a size check grows: the filter's shear box, or the checks'
+SIZE_TABLES = ("-size", "-check-box-size")  # their tables, <soil><part>.csv and .json
 
 
 def size_check_boxes(cfg: dict, box: str = "filter") -> tuple[dict, dict, str]:
@@ -705,10 +709,10 @@ def size_check_boxes(cfg: dict, box: str = "filter") -> tuple[dict, dict, str]:
     if key not in cfg or (box == "checks" and "check_box_mm" not in cfg):
         raise ConfigError(f"{CONFIG}: [bench] lacks {key} (the grown box, mm)")
     if box == "filter":
-        return cfg, grown_bench(cfg), "size"
+        return cfg, grown_bench(cfg), SIZE_TABLES[0][1:]
     checks = checks_bench(cfg)
     grown = {**checks, "size_mm": list(cfg[key]), "twins": [checks, *checks.get("twins", [])]}
-    return checks, grown, "check-box-size"
+    return checks, grown, SIZE_TABLES[1][1:]
 
 
 def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR, box: str = "filter") -> pd.DataFrame:
