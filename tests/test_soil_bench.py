@@ -1205,6 +1205,8 @@ def test_remeasure_reads_every_kept_check_again_and_records_the_posteriors(tmp_p
         path.parent.mkdir(exist_ok=True)
         table.to_csv(path, index=False)
     table[:3].to_csv(tmp_path / "clay-check.csv", index=False)
+    sized = pd.concat([table[:3].assign(box="configured"), table[:3].assign(box="grown")])
+    (tmp_path / "clay-size.csv").write_text("# the size check\n" + sized.to_csv(index=False))
     stale = {r: {"mean": 0.0, "target": t} for r, t in (("c_kpa", [20, 35]), ("phi_deg", [20, 30]),
                                                         ("collapse_deg", [30, 38]))}
     (tmp_path / "clay-check-packings.json").write_text(json.dumps(stale))
@@ -1217,7 +1219,10 @@ def test_remeasure_reads_every_kept_check_again_and_records_the_posteriors(tmp_p
     config.write_text((bench.ROOT / "configs/soils/clay.toml").read_text())
     done = bench.remeasure("clay", tmp_path, config)
     assert sorted(p.relative_to(tmp_path).as_posix() for p in done) == ["clay-check-packings.csv", "clay-check.csv",
-                                                                         "filter-box/clay-check.csv"]
+                                                                         "clay-size.csv", "filter-box/clay-check.csv"]
+    size = {r["response"]: r for r in json.loads((tmp_path / "clay-size.json").read_text())}
+    assert size["c_kpa"]["configured_mean"] == pytest.approx(22.0) and size["c_kpa"]["shift"] == pytest.approx(0.0)
+    assert (tmp_path / "clay-size.csv").read_text().startswith("# the size check\n")
     three = json.loads((tmp_path / "clay-check.json").read_text())
     assert three["c_kpa"]["every_packing_inside"] is True and three["cone_kpa"] == cone
     for path in done:
