@@ -992,7 +992,8 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
                                        label="target range" if i == 0 else None))
             t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
             if r in t:
-                ax.scatter(np.full(len(t), i - 0.15), t[r], s=10, c="0.5", label="filter's samples, as weighed" if i == 0 else None)
+                ax.scatter(np.full(len(t), i - 0.15), t[r], s=10, c="0.5",
+                           label="filter's samples, as weighed" if i == 0 else None)
             check_path = Path(out_dir) / f"{soil}-check.csv"
             c = pd.read_csv(check_path, comment="#") if check_path.exists() else pd.DataFrame()
             points = c[r].to_numpy(float) if r in c else [checks[soil][r]["mean"]] if r in checks.get(soil, {}) else []
