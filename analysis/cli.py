@@ -119,8 +119,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cone size / ASABE S313 size (default 3)")
     p.add_argument("--cone-speed", type=option("--cone-speed", CONE_FIELDS["speed"]), default=0.5,
                    help="the cone's penetration speed, m/s (default 0.5)")
-    p.add_argument("--seeds", type=option("--seeds", SEED, many=True), default=[1],
-                   help="packing seeds; the cone index is their mean, e.g. 1,2,3")
+    p.add_argument("--seeds", type=option("--seeds", SEED, many=True), default=None,
+                   help="packing seeds; the cone index is their mean (default 1), e.g. 1,2,3; with --size-check the "
+                        "packings it checks (default [bench] check_seeds)")
     p.add_argument("--lateral", default="periodic", help="the beds' sides: periodic (no side walls) | walls")
     p.add_argument("--workers", type=option("--workers", WORKERS), default=None,
                    help="scenes at a time: cones (default 2), or with --bench its evaluations and cones (default "

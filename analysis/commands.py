@@ -77,7 +77,7 @@ def cmd_calibrate(args) -> int:
         print(f"calibrate: --size {args.size!r}: allowed three numbers length,width,depth in mm", file=sys.stderr)
         return 2
     try:
-        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, args.seeds, args.cone_speed,
+        calibrate.run(args.soil, args.resolution, args.size, args.cone_scale, lo, hi, args.seeds or [1], args.cone_speed,
                       args.threads, args.lateral, args.workers or 2)
     except (ValueError, RuntimeError) as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
@@ -167,9 +167,10 @@ def packings_checked(args, cfg: dict) -> dict:
     """`calibrate --bench --check-packings`: the check on the packings of --seeds; the posterior's is recorded in
     configs/soils/<soil>.toml [bench_posterior] too."""
     from analysis.soil import bench_calibration as bench
-    result = bench.check_packings(args.soil, args.seeds, cfg, which=args.check_packings)
+    seeds = args.seeds or [1]
+    result = bench.check_packings(args.soil, seeds, cfg, which=args.check_packings)
     if args.check_packings == "posterior":
-        bench.record_packings(args.soil, result, args.seeds)
+        bench.record_packings(args.soil, result, seeds)
     return result
 
 
@@ -195,11 +196,12 @@ def cmd_calibrate_bench(args) -> int:
         return 2
     if asked:
         import pandas as pd
-        checks = {"--size-check": lambda: bench.size_check(args.soil, cfg, box=args.size_check).round(2),
+        checks = {"--size-check": lambda: bench.size_check(args.soil, cfg, box=args.size_check, seeds=args.seeds).round(2),
                   "--cones": lambda: bench.cones(args.soil, args.cones, cfg, workers=cfg["workers"],
                                                 runs_grains=args.runs_grains),
                   "--probe": lambda: bench.probes(args.soil, args.probe, cfg),
-                  "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds, cfg, workers=cfg["workers"]).round(2),
+                  "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds or [1], cfg,
+                                                                 workers=cfg["workers"]).round(2),
                   "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg)).T,
                   "--check-packings": lambda: pd.DataFrame(packings_checked(args, cfg)).T,
                   "--remeasure": lambda: pd.DataFrame({"remeasured": [str(p.relative_to(ROOT))

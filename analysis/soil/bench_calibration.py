@@ -715,15 +715,16 @@ def size_check_boxes(cfg: dict, box: str = "filter") -> tuple[dict, dict, str]:
     return checks, grown, SIZE_TABLES[1][1:]
 
 
-def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR, box: str = "filter") -> pd.DataFrame:
+def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR, box: str = "filter",
+               seeds: list[int] | None = None) -> pd.DataFrame:
     """The bench's size check at the soil's posterior mean (<out_dir>/<soil>-posterior.json): its responses on the
-    check packings in the configured box and in one grown by half each way (`size_check_boxes`: the filter's box
-    or the checks'). Writes <soil>-size.csv (the checks' box: <soil>-check-box-size.csv; every evaluation) and
-    returns the verdict per response (`size_verdict`)."""
+    check packings (`seeds`, else [bench] check_seeds) in the configured box and in one grown by half each way
+    (`size_check_boxes`: the filter's box or the checks'). Writes <soil>-size.csv (the checks' box:
+    <soil>-check-box-size.csv; every evaluation) and returns the verdict per response (`size_verdict`)."""
     cfg = cfg or load_config(soil=soil)
     configured, grown, name = size_check_boxes(cfg, box)
     params = posterior_mean(soil, out_dir)
-    seeds = [int(s) for s in cfg["check_seeds"]]
+    seeds = [int(s) for s in (seeds or cfg["check_seeds"])]
     boxes = {"configured": configured, "grown": grown}
     jobs = [(label, settings, s) for label, settings in boxes.items() for s in seeds]
     rows = evaluate_all(soil, [(s, params) for _, _, s in jobs], cfg, out_dir, cfgs=[b for _, b, _ in jobs])
