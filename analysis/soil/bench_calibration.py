@@ -730,7 +730,8 @@ def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR, bo
     rows = evaluate_all(soil, [(s, params) for _, _, s in jobs], cfg, out_dir, cfgs=[b for _, b, _ in jobs])
     table = pd.DataFrame([{"box": label, "size_mm": "x".join(f"{v:g}" for v in settings["size_mm"]), **row}
                           for (label, settings, _), row in zip(jobs, rows)]).drop(columns=["tau_peak_kpa"], errors="ignore")
-    flag = "--size-check" + ("" if box == "filter" else f" {box}")
+    flag = "--size-check" + ("" if box == "filter" else f" {box}") + (f" --seeds {','.join(map(str, seeds))}"
+                                                                       if seeds != [int(s) for s in cfg["check_seeds"]] else "")
     atomic_csv(table, Path(out_dir) / f"{soil}-{name}.csv",
                f"./holes calibrate --soil {soil} --bench {flag}; {soil}'s posterior mean on packings "
                f"{','.join(map(str, seeds))} in the {'filter' if box == 'filter' else 'checks'}' box and one grown by half")
