@@ -143,7 +143,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size-check", nargs="?", const="filter", default=None, metavar="filter|checks",
                    help="with --bench: no calibration; the posterior mean's bench responses on the check packings in "
                         "the filter's box (or the checks' shear box) and one grown by half "
-                        "(results/calibration/bench/<soil>-size.csv, <soil>-check-box-size.csv)")
+                        "(results/calibration/bench/<soil>-size.csv, <soil>-box-size.csv)")
     p.add_argument("--remeasure", action="store_true",
                    help="with --bench: nothing runs; every kept check of the soil measured again from its evaluations' "
                         "stored results (c and φ, the collapse slope) and judged again, the posterior's recorded in "

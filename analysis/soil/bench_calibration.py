@@ -688,7 +688,8 @@ def deepest_set(soil: str, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
 
 
 SIZE_CHECKS = ("filter", "checks")       # the box a size check grows: the filter's shear box, or the checks'
-SIZE_TABLES = ("-size", "-check-box-size")  # their tables, <soil><part>.csv and .json
+SIZE_TABLES = ("-size", "-box-size")  # their tables, <soil><part>.csv and .json (no "-check": the report reads
+# every <soil>-check*.csv as checks in one box)
 
 
 def size_check_boxes(cfg: dict, box: str = "filter") -> tuple[dict, dict, str]:
@@ -701,7 +702,7 @@ def size_check_boxes(cfg: dict, box: str = "filter") -> tuple[dict, dict, str]:
     ...        "size_check_mm": [225, 225, 150], "check_size_check_mm": [338, 338, 225]}
     >>> base, grown, name = size_check_boxes(cfg, "checks")
     >>> base["size_mm"], grown["size_mm"], grown["collapse_size_mm"], name
-    ([225, 225, 150], [338, 338, 225], [225, 225, 150], 'check-box-size')
+    ([225, 225, 150], [338, 338, 225], [225, 225, 150], 'box-size')
     """
     if box not in SIZE_CHECKS:
         raise ConfigError(f"--size-check {box}: allowed {' or '.join(SIZE_CHECKS)}")
@@ -720,7 +721,7 @@ def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR, bo
     """The bench's size check at the soil's posterior mean (<out_dir>/<soil>-posterior.json): its responses on the
     check packings (`seeds`, else [bench] check_seeds) in the configured box and in one grown by half each way
     (`size_check_boxes`: the filter's box or the checks'). Writes <soil>-size.csv (the checks' box:
-    <soil>-check-box-size.csv; every evaluation) and returns the verdict per response (`size_verdict`)."""
+    <soil>-box-size.csv; every evaluation) and returns the verdict per response (`size_verdict`)."""
     cfg = cfg or load_config(soil=soil)
     configured, grown, name = size_check_boxes(cfg, box)
     params = posterior_mean(soil, out_dir)
