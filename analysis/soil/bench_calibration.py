@@ -13,6 +13,7 @@ posterior mean is checked on three packings and on the cone beside Table 2 (`che
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import math
 import sys
@@ -300,26 +301,25 @@ def scene_file(folder: Path, scene: str) -> Path | None:
     return None
 
 
-def kept(folder: Path) -> bool:
-    """Whether an evaluation's folder holds both its scenes' result files (a folder another machine did not send
-    holds neither)."""
-    return folder.is_dir() and all(scene_file(folder, scene) for scene in SCENE_DETAIL)
-
-
 def scene_result(folder: Path, scene: str) -> dict | None:
     """The contents of the scene's result file in an evaluation's folder (`scene_file`), None if it has none."""
     path = scene_file(folder, scene)
     return json.loads(path.read_text()) if path else None
 
 
-def measured(row: dict, folder: Path) -> dict:
+def measured(row: dict, folder: Path, kept_only: bool = False) -> dict:
     """The evaluation's responses measured from its stored scene results each time it is read: c and φ fitted to the
     shear box's tests (analysis/soil/shear.py), the collapse slope from the column's profile
     (analysis/soil/collapse.py). A finished evaluation is so measured the way the current code measures; its
-    responses.json keeps what its run read."""
+    responses.json keeps what its run read. `kept_only`: a row of a table, kept as it is where its evaluation
+    failed or its folder lacks a scene's result (another machine's run, not sent here); else that raises."""
     from analysis.soil.collapse import profile_angle
+    if kept_only and (isinstance(row.get("failed"), str) or not folder.is_dir()):
+        return row
     box, column = scene_result(folder, "shear"), scene_result(folder, "collapse")
     if box is None or column is None:
+        if kept_only:
+            return row
         raise RuntimeError(f"{folder}: no {'shear box tests' if box is None else 'collapse profile'}")
     fit = fit_tests(box["tests"])
     return {**row, "c_kpa": fit["c_kpa"], "phi_deg": fit["phi_deg"], "collapse_deg": profile_angle(column["profile_mm"])}
@@ -569,14 +569,13 @@ def remeasure(soil: str, out_dir: Path = BENCH_DIR, config: Path | None = None) 
             path = folder / f"{soil}{part}.csv"
             if not path.exists():
                 continue
-            table = pd.read_csv(path, comment="#", float_precision="round_trip")     # its parameters as written
+            text = path.read_text()
+            table = pd.read_csv(io.StringIO(text), comment="#", float_precision="round_trip")   # its parameters as written
             if "id" not in table:
                 continue
-            rows = [measured(row, f) if kept(f := Path(out_dir) / soil / str(row["id"]))
-                    and not isinstance(row.get("failed"), str) else row for row in table.to_dict(orient="records")]
-            table = pd.DataFrame(rows)[table.columns]
-            head = path.read_text().splitlines()[0]
-            atomic_csv(table, path, head[1:].strip() if head.startswith("#") else None)
+            table = pd.DataFrame([measured(row, Path(out_dir) / soil / str(row["id"]), kept_only=True)
+                                  for row in table.to_dict(orient="records")])[table.columns]
+            atomic_csv(table, path, text[1:text.index("\n")].strip() if text.startswith("#") else None)
             verdicts = path.with_suffix(".json")
             if part in SIZE_TABLES:
                 atomic_write(verdicts, json.dumps(size_verdict(table).to_dict(orient="records"), indent=1))
@@ -1290,8 +1289,7 @@ def soil_evaluations(soil: str, out_dir: Path = BENCH_DIR, box: list | None = No
     table = table.drop_duplicates("id") if "id" in table else table
     if "id" in table:                       # each measured as the current code measures (the filter's table keeps
         folders = [Path(out_dir) / soil / str(i) for i in table["id"]]     # what the filter weighed)
-        table = pd.DataFrame([measured(row, f) if kept(f) and not isinstance(row.get("failed"), str) else row
-                              for row, f in zip(table.to_dict(orient="records"), folders)])
+        table = pd.DataFrame([measured(row, f, kept_only=True) for row, f in zip(table.to_dict(orient="records"), folders)])
     if box is not None and "id" in table:
         boxes = [evaluation_box(Path(out_dir) / soil / str(i)) for i in table["id"]]
         table = table[[b is None or b == [float(v) for v in box] for b in boxes]]
