@@ -1112,23 +1112,53 @@ def test_the_box_scatter_counts_each_checked_set_once_and_tells_a_moved_deepest_
     assert table.loc[200.0, "tau_sd_kpa"] == pytest.approx(np.sqrt(3 * 128 / 7), abs=1e-3)   # 128 each set
 
 
-def test_the_box_shift_sets_a_posteriors_packings_in_the_filters_box_beside_the_checks(tmp_path):
-    """`box_shift_run`: a soil whose posterior was checked on more packings in both boxes gives a row per response,
-    the checks' box's mean less the filter's with its interval; a soil checked in one box only gives none."""
+def test_the_box_shift_is_the_size_check_of_each_box_over_every_packing_it_ran(tmp_path):
+    """`box_shift_run`: a soil whose posterior was checked in the filter's box, the checks' box and the checks' box
+    grown by half gives a row per shear response and box pair, the bigger box's mean less the smaller's over every
+    packing each box ran (its check and size tables, each packing once, the box read from the evaluation's result:
+    a seed names a packing within one box only), with its interval and the size rule's verdict; rows of another set
+    and a soil checked in one box only give none."""
     from analysis.soil.soils_apart import box_shift_run
     assert box_shift_run(tmp_path) is None
     (tmp_path / bench.FILTER_BOX_CHECKS).mkdir()
+    post = {"normal_cohesion": 1.2e5, "friction_deg": 19.0, "pressed_adhesion": 0.06, "rolling_friction": 0.04,
+            "damping": 0.14}
+    heap = {"profile_mm": [[x, max(0.0, min(100.0, 200.0 - x))] for x in range(0, 400, 2)]}
 
-    def rows(c0):
-        return pd.DataFrame({"c_kpa": [c0, c0 + 2, c0 + 4, c0 + 1], "phi_deg": [30.0, 31.0, 32.0, 31.0],
-                             "collapse_deg": [35.0, 36.0, 34.0, 35.0]})
-    rows(12.0).to_csv(tmp_path / bench.FILTER_BOX_CHECKS / "sand-check-packings.csv", index=False)
-    rows(9.0).to_csv(tmp_path / "sand-check-packings.csv", index=False)
-    rows(20.0).to_csv(tmp_path / "clay-check-packings.csv", index=False)
-    table = pd.read_csv(box_shift_run(tmp_path), comment="#").set_index("response")
-    assert set(table.soil) == {"sand"} and table.loc["c_kpa", "shift"] == pytest.approx(-3.0)
-    assert table.loc["c_kpa", "shift_lo"] < -3.0 < table.loc["c_kpa", "shift_hi"]
-    assert table.loc["phi_deg", "shift"] == 0 and not table.loc["phi_deg", "resolved"]
+    def rows(soil, name, box_mm, cs, **params):
+        out = []
+        for seed, c in enumerate(cs, start=1):
+            folder = tmp_path / soil / f"{name}{seed}"
+            folder.mkdir(parents=True)
+            box = shear_box(c, 30.0 + seed % 2, size=box_mm[0] / 1000)
+            for t in box["tests"]:
+                t["size_m"] = [v / 1000 for v in box_mm]
+            (folder / "box.json").write_text(json.dumps(box))
+            (folder / "column.json").write_text(json.dumps(heap))
+            out.append({"id": f"{name}{seed}", "soil": soil, "seed": seed, **{**post, **params}, "c_kpa": 0.0})
+        return pd.DataFrame(out)
+    for soil in ("sand", "clay"):
+        (tmp_path / f"{soil}-posterior.json").write_text(json.dumps({"mean": post}))
+    rows("sand", "f", [150, 150, 100], [12.0, 14.0, 16.0, 13.0]).to_csv(
+        tmp_path / bench.FILTER_BOX_CHECKS / "sand-check-packings.csv", index=False)
+    checks = rows("sand", "k", [225, 225, 150], [9.0, 11.0, 13.0, 10.0])
+    checks.to_csv(tmp_path / "sand-check-packings.csv", index=False)
+    checks[:3].to_csv(tmp_path / "sand-check.csv", index=False)
+    pd.concat([checks[:2].assign(box="configured", size_mm="225x225x150"),
+               rows("sand", "g", [338, 338, 225], [3.0, 5.0, 7.0]).assign(box="grown", size_mm="338x338x225"),
+               rows("sand", "x", [338, 338, 225], [0.0, 0.0], damping=0.2).assign(box="grown", size_mm="338x338x225")]
+              ).to_csv(tmp_path / "sand-box-size.csv", index=False)
+    rows("clay", "k", [225, 225, 150], [20.0, 22.0, 24.0]).to_csv(tmp_path / "clay-check-packings.csv", index=False)
+    table = pd.read_csv(box_shift_run(tmp_path), comment="#")
+    assert set(table.soil) == {"sand"} and set(table.response) == {"c_kpa", "phi_deg"}
+    first, grown = (table[table.configured_mm == mm].set_index("response") for mm in ("150x150x100", "225x225x150"))
+    assert first.loc["c_kpa", "shift"] == pytest.approx(-3.0) and first.loc["c_kpa", "grown_n"] == 4
+    assert first.loc["c_kpa", "shift_lo"] < -3.0 < first.loc["c_kpa", "shift_hi"]
+    assert first.loc["phi_deg", "shift"] == pytest.approx(0) and not first.loc["phi_deg", "resolved"]
+    assert first.loc["phi_deg", "passes"]
+    assert grown.loc["c_kpa", "configured_n"] == 4 and grown.loc["c_kpa", "grown_n"] == 3
+    assert grown.loc["c_kpa", "shift"] == pytest.approx(5.0 - 10.75) and not grown.loc["c_kpa", "passes"]
+    assert grown.loc["c_kpa", "grown_mm"] == "338x338x225"
 
 
 def test_the_cone_per_c_table_reads_each_checked_sets_box_and_its_kept_cones_at_the_runs_grains(tmp_path):

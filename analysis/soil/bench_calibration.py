@@ -578,7 +578,9 @@ def remeasure(soil: str, out_dir: Path = BENCH_DIR, config: Path | None = None) 
             atomic_csv(table, path, text[1:text.index("\n")].strip() if text.startswith("#") else None)
             verdicts = path.with_suffix(".json")
             if part in SIZE_TABLES:
-                atomic_write(verdicts, json.dumps(size_verdict(table).to_dict(orient="records"), indent=1))
+                pooled = {label: posterior_packings(soil, str(size).split("x"), folder, out_dir)
+                          for label, size in table.groupby("box")["size_mm"].first().items()} if "size_mm" in table else None
+                atomic_write(verdicts, json.dumps(size_verdict(table, pooled).to_dict(orient="records"), indent=1))
             elif verdicts.exists():
                 named = [p for p in params if p in table]
                 last = table[(table[named] == table[named].iloc[-1]).all(axis=1)] if named else table
@@ -735,7 +737,8 @@ def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR, bo
     atomic_csv(table, Path(out_dir) / f"{soil}-{name}.csv",
                f"./holes calibrate --soil {soil} --bench {flag}; {soil}'s posterior mean on packings "
                f"{','.join(map(str, seeds))} in the {'filter' if box == 'filter' else 'checks'}' box and one grown by half")
-    verdict = size_verdict(table)
+    pooled = {label: posterior_packings(soil, settings["size_mm"], out_dir, out_dir) for label, settings in boxes.items()}
+    verdict = size_verdict(table, pooled)
     atomic_write(Path(out_dir) / f"{soil}-{name}.json", json.dumps(verdict.to_dict(orient="records"), indent=1))
     return verdict
 
@@ -796,10 +799,35 @@ def difference_interval(a, b, level: float = 0.95) -> tuple[float, float, float]
     return float(d), float(d - half), float(d + half)
 
 
-def size_verdict(table: pd.DataFrame) -> pd.DataFrame:
-    """Per response: the mean and SD over packings in the configured and the grown box, the shift of the mean with
-    its Welch 95 % interval, and whether it passes: the grown box moves the mean by less than the packings' SD in the
-    configured box.
+def size_shift(configured: pd.DataFrame, grown: pd.DataFrame, responses=RESPONSES) -> pd.DataFrame:
+    """The size check's rule, per response of `responses` both tables hold: each box's mean and SD over its packings,
+    the shift of the mean (grown − configured) with its Welch 95 % interval, whether the interval leaves zero out
+    (`resolved`) and whether the box passes: the grown box moves the mean by less than the packings' SD in the
+    configured box. A seed names a packing within one box only (grown, its grains are another draw), so each box is
+    read over every packing it ran.
+
+    >>> a = pd.DataFrame({"c_kpa": [27, 28, 29, 28], "phi_deg": [27, 28, 29, 28]})
+    >>> b = pd.DataFrame({"c_kpa": [21, 22, 23], "phi_deg": [27.5, 28.5, 29.5]})
+    >>> size_shift(a, b)[["response", "shift", "resolved", "passes"]].to_dict(orient="list")
+    {'response': ['c_kpa', 'phi_deg'], 'shift': [-6.0, 0.5], 'resolved': [True, False], 'passes': [False, True]}
+    """
+    rows = []
+    for r in [r for r in responses if r in configured and r in grown]:
+        a, b = (t[r].dropna().to_numpy(float) for t in (configured, grown))
+        if len(a) < 2 or len(b) < 1:
+            continue
+        sd = float(np.std(a, ddof=1))
+        shift, lo, hi = difference_interval(a, b) if len(b) > 1 else (float(b.mean() - a.mean()), math.nan, math.nan)
+        rows.append({"response": r, "configured_mean": float(a.mean()), "configured_sd": sd, "configured_n": len(a),
+                     "grown_mean": float(b.mean()), "grown_sd": float(np.std(b, ddof=1)) if len(b) > 1 else math.nan,
+                     "grown_n": len(b), "shift": shift, "shift_lo": lo, "shift_hi": hi,
+                     "resolved": bool(lo > 0 or hi < 0), "passes": bool(abs(shift) < sd)})
+    return pd.DataFrame(rows)
+
+
+def size_verdict(table: pd.DataFrame, pooled: dict | None = None) -> pd.DataFrame:
+    """`size_shift` of a size check's table (`box` "configured" or "grown", one row per evaluation), c and φ read
+    over `pooled`'s rows where given (per box, every packing it ran at the set: `posterior_packings`).
 
     >>> t = pd.DataFrame({"box": ["configured"] * 3 + ["grown"] * 3, "c_kpa": [27, 28, 29, 21, 22, 23],
     ...                   "phi_deg": [27, 28, 29, 27.5, 28.5, 29.5], "collapse_deg": [33, 37, 35, 36, 35, 34]})
@@ -807,19 +835,53 @@ def size_verdict(table: pd.DataFrame) -> pd.DataFrame:
     {'response': ['c_kpa', 'phi_deg', 'collapse_deg'], 'shift': [-6.0, 0.5, 0.0], 'passes': [False, True, True]}
     >>> size_verdict(t)[["shift_lo", "shift_hi"]].round(1).to_dict(orient="list")
     {'shift_lo': [-8.3, -1.8, -4.2], 'shift_hi': [-3.7, 2.8, 4.2]}
+    >>> more = t[t["box"] == "configured"].assign(c_kpa=[20, 22, 24])
+    >>> pooled = {"configured": pd.concat([t[t["box"] == "configured"], more]), "grown": t[t["box"] == "grown"]}
+    >>> v = size_verdict(t, pooled)
+    >>> v["response"].tolist(), v["configured_n"].tolist(), v["shift"].tolist(), v["passes"].tolist()
+    (['c_kpa', 'phi_deg', 'collapse_deg'], [6, 6, 3], [-3.0, 0.5, 0.0], [True, True, True])
     """
-    rows = []
-    for r in RESPONSES:
-        base = table.loc[table["box"] == "configured", r].to_numpy(float)
-        grown = table.loc[table["box"] == "grown", r].to_numpy(float)
-        sd = float(np.std(base, ddof=1)) if len(base) > 1 else math.nan
-        shift, lo, hi = difference_interval(base, grown) if len(base) > 1 and len(grown) > 1 else \
-            (float(grown.mean() - base.mean()), math.nan, math.nan)
-        rows.append({"response": r, "configured_mean": float(base.mean()), "configured_sd": sd,
-                     "grown_mean": float(grown.mean()),
-                     "grown_sd": float(np.std(grown, ddof=1)) if len(grown) > 1 else math.nan,
-                     "shift": shift, "shift_lo": lo, "shift_hi": hi, "passes": bool(abs(shift) < sd)})
-    return pd.DataFrame(rows)
+    own = size_shift(table[table["box"] == "configured"], table[table["box"] == "grown"])
+    if not pooled:
+        return own
+    shear = size_shift(pooled["configured"], pooled["grown"], SHEAR_RESPONSES)
+    if shear.empty:
+        return own
+    return pd.concat([shear, own[~own["response"].isin(shear["response"])]], ignore_index=True)
+
+
+SHEAR_RESPONSES = ("c_kpa", "phi_deg")     # the shear box's responses: what a box's size moves
+
+
+def at_posterior(table: pd.DataFrame, post: dict) -> pd.DataFrame:
+    """The rows of a check table run at the parameter set `post` (each parameter to the digits an evaluation runs
+    with): rows of another set, an earlier posterior's, give none."""
+    want = rounded(post)
+    if any(k not in table for k in want):
+        return table.iloc[:0]
+    return table[np.all([table[k].map(lambda v: float(f"{v:.4g}")) == v for k, v in want.items()], axis=0)]
+
+
+def posterior_packings(soil: str, box_mm, folder: Path = BENCH_DIR, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
+    """Every kept check of the soil's posterior mean (<folder>/<soil>-posterior.json) whose shear box was `box_mm`,
+    one row per packing, measured (`measured`): the rows at that set of the check and size tables in `folder` (and
+    in its FILTER_BOX_CHECKS), the box read from each evaluation's folder in <out_dir>/<soil>/. A seed names a
+    packing within one box only, so the size check's rule reads each box over all of them."""
+    folder, out_dir = Path(folder), Path(out_dir)
+    if not (folder / f"{soil}-posterior.json").exists():
+        return pd.DataFrame()
+    post = posterior_mean(soil, folder)
+    paths = [folder / f"{soil}{part}.csv" for part in (*CHECK_TABLES, *SIZE_TABLES)]
+    paths += [folder / FILTER_BOX_CHECKS / f"{soil}{part}.csv" for part in CHECK_TABLES]
+    rows, box = {}, [float(v) for v in box_mm]
+    for path in [p for p in paths if p.exists()]:
+        table = at_posterior(pd.read_csv(path, comment="#", float_precision="round_trip"), post)
+        for row in table.to_dict(orient="records"):
+            evaluation = out_dir / soil / str(row["id"])
+            if (int(row["seed"]) not in rows and not isinstance(row.get("failed"), str)
+                    and evaluation_box(evaluation) == box):
+                rows[int(row["seed"])] = measured(row, evaluation, kept_only=True)
+    return pd.DataFrame([rows[s] for s in sorted(rows)])
 
 
 def cone_path(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, seed: int | None = None) -> tuple[Path, dict]:

@@ -15,9 +15,9 @@ from scipy import stats
 
 from analysis.core.io import atomic_csv
 from analysis.core.soil_config import SOILS
-from analysis.soil.bench_calibration import (BENCH_DIR, FILTER_BOX_CHECKS, RESPONSES, cone_path, cone_range, difference_interval,
-                                             filter_seeds, load_config, mean_verdict, runs_cone, scene_result,
-                                             shear_box_mm, target_ranges)
+from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, cone_path, cone_range, difference_interval,
+                                             filter_seeds, load_config, mean_verdict, posterior_packings, runs_cone,
+                                             scene_result, shear_box_mm, SHEAR_RESPONSES, size_shift, target_ranges)
 
 
 def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict]) -> pd.DataFrame:
@@ -243,45 +243,29 @@ def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
     return path
 
 
-def box_shift(filter_box: pd.DataFrame, check_box: pd.DataFrame) -> pd.DataFrame:
-    """Per bench response, one set's packings read in the filter's box and in the checks' box: each box's mean and SD
-    over its packings and the shift of the mean (checks' − filter's) with its Welch 95 % interval.
-
-    >>> a = pd.DataFrame({"c_kpa": [13.0, 14.0, 15.0], "phi_deg": [34.0, 35.0, 36.0]})
-    >>> b = pd.DataFrame({"c_kpa": [9.5, 10.0, 10.5], "phi_deg": [34.0, 35.0, 36.0]})
-    >>> box_shift(a, b)[["response", "shift", "resolved"]].to_dict(orient="list")
-    {'response': ['c_kpa', 'phi_deg'], 'shift': [-4.0, 0.0], 'resolved': [True, False]}
-    """
-    rows = []
-    for r in [r for r in RESPONSES if r in filter_box and r in check_box]:
-        a, b = (t[r].dropna().to_numpy(float) for t in (filter_box, check_box))
-        if len(a) < 2 or len(b) < 2:
-            continue
-        shift, lo, hi = difference_interval(a, b)
-        rows.append({"response": r, "filter_box_mean": a.mean(), "filter_box_sd": a.std(ddof=1), "filter_box_n": len(a),
-                     "check_box_mean": b.mean(), "check_box_sd": b.std(ddof=1), "check_box_n": len(b),
-                     "shift": shift, "shift_lo": lo, "shift_hi": hi, "resolved": bool(lo > 0 or hi < 0)})
-    return pd.DataFrame(rows)
-
-
 def box_shift_run(out_dir: Path = BENCH_DIR) -> Path | None:
-    """box-shift.csv: `box_shift` of every soil's posterior checked on more packings in both boxes (`<soil>-check-
-    packings.csv` in the checks' box, the same in FILTER_BOX_CHECKS in the filter's); None when no soil has both."""
+    """box-shift.csv: the shear box's size checks over every packing each box ran (`size_shift` of
+    `posterior_packings`), per soil's posterior mean: the filter's box against the checks' box, and the checks' box
+    against it grown by half; None when no soil has a pair."""
     out_dir = Path(out_dir)
+    cfg = load_config()
+    boxes = [cfg[k] for k in ("size_mm", "check_box_mm", "check_size_check_mm")]
     tables = []
     for soil in SOILS:
-        paths = [out_dir / FILTER_BOX_CHECKS / f"{soil}-check-packings.csv", out_dir / f"{soil}-check-packings.csv"]
-        if all(p.exists() for p in paths):
-            tables.append(box_shift(*(pd.read_csv(p, comment="#") for p in paths)).assign(soil=soil))
+        read = [posterior_packings(soil, box, out_dir, out_dir) for box in boxes]
+        for (small, a), (big, b) in itertools.pairwise(zip(boxes, read)):
+            shift = size_shift(a, b, SHEAR_RESPONSES) if len(a) and len(b) else pd.DataFrame()
+            if len(shift):
+                tables.append(shift.assign(soil=soil, configured_mm="x".join(f"{v:g}" for v in small),
+                                           grown_mm="x".join(f"{v:g}" for v in big)))
     if not tables:
         return None
     path = out_dir / "box-shift.csv"
-    cfg = load_config()
     atomic_csv(pd.concat(tables).round(3), path,
-               "./holes calibration-report; each soil's posterior mean on its check packings in the filter's shear box "
-               f"({'x'.join(map(str, cfg['size_mm']))} mm, {FILTER_BOX_CHECKS}/<soil>-check-packings.csv) and in the "
-               f"checks' ({'x'.join(map(str, cfg['check_box_mm']))} mm, <soil>-check-packings.csv): the shift of each "
-               "response's mean with its Welch 95 % interval")
+               "./holes calibration-report; the shear box's size checks, each soil's posterior mean over every packing "
+               "each box ran (its checks and size checks): the filter's box against the checks' and the checks' "
+               "against it grown by half; the shift of each response's mean with its Welch 95 % interval, resolved "
+               "when that leaves zero out; passes: under the configured box's packing SD")
     return path
 
 
