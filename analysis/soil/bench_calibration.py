@@ -36,6 +36,7 @@ from analysis.soil.shear import READING, fit_tests
 CONFIG = ROOT / "configs/bench_calibration.toml"
 TARGETS = ROOT / "configs/field/soil_targets.csv"
 RESPONSES = ("c_kpa", "phi_deg", "collapse_deg")
+SHEAR_RESPONSES = ("c_kpa", "phi_deg")    # the shear box's: what its size check moves
 UNTESTABLE = 3         # a bench scene's exit code when it stopped the test itself (scripts/shear.py, scripts/collapse.py)
 SCENES_VERSION = 3     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
 
@@ -848,9 +849,6 @@ def size_verdict(table: pd.DataFrame, pooled: dict | None = None) -> pd.DataFram
     if shear.empty:
         return own
     return pd.concat([shear, own[~own["response"].isin(shear["response"])]], ignore_index=True)
-
-
-SHEAR_RESPONSES = ("c_kpa", "phi_deg")     # the shear box's responses: what a box's size moves
 
 
 def at_posterior(table: pd.DataFrame, post: dict) -> pd.DataFrame:
