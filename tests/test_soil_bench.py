@@ -1238,6 +1238,17 @@ def test_remeasure_reads_every_kept_check_again_and_records_the_posteriors(tmp_p
     table[:3].to_csv(tmp_path / "clay-check.csv", index=False)
     sized = pd.concat([table[:3].assign(box="configured"), table[:3].assign(box="grown")])
     (tmp_path / "clay-size.csv").write_text("# the size check\n" + sized.to_csv(index=False))
+    for seed in (1, 2):                                # the checks' box grown by half on packings 1 and 2
+        folder = tmp_path / "clay" / f"g{seed}"
+        folder.mkdir()
+        box = shear_box(26.0 + seed, 26.0, size=0.338)
+        for test in box["tests"]:
+            test["size_m"] = [0.338, 0.338, 0.225]
+        (folder / "box.json").write_text(json.dumps(box))
+        (folder / "column.json").write_text(json.dumps({"profile_mm": heap}))
+    grown = table[:2].assign(id=["g1", "g2"], box="grown", size_mm="338x338x225")
+    pd.concat([table[:2].assign(box="configured", size_mm="225x225x150"), grown]).to_csv(tmp_path / "clay-box-size.csv",
+                                                                                        index=False)
     stale = {r: {"mean": 0.0, "target": t} for r, t in (("c_kpa", [20, 35]), ("phi_deg", [20, 30]),
                                                         ("collapse_deg", [30, 38]))}
     (tmp_path / "clay-check-packings.json").write_text(json.dumps(stale))
@@ -1249,14 +1260,15 @@ def test_remeasure_reads_every_kept_check_again_and_records_the_posteriors(tmp_p
     config = tmp_path / "clay.toml"
     config.write_text((bench.ROOT / "configs/soils/clay.toml").read_text())
     done = bench.remeasure("clay", tmp_path, config)
-    assert sorted(p.relative_to(tmp_path).as_posix() for p in done) == ["clay-check-packings.csv", "clay-check.csv",
-                                                                         "clay-size.csv", "filter-box/clay-check.csv"]
+    assert sorted(p.relative_to(tmp_path).as_posix() for p in done) == ["clay-box-size.csv", "clay-check-packings.csv",
+                                                                         "clay-check.csv", "clay-size.csv",
+                                                                         "filter-box/clay-check.csv"]
     size = {r["response"]: r for r in json.loads((tmp_path / "clay-size.json").read_text())}
     assert size["c_kpa"]["configured_mean"] == pytest.approx(22.0) and size["c_kpa"]["shift"] == pytest.approx(0.0)
     assert (tmp_path / "clay-size.csv").read_text().startswith("# the size check\n")
     three = json.loads((tmp_path / "clay-check.json").read_text())
     assert three["c_kpa"]["every_packing_inside"] is True and three["cone_kpa"] == cone
-    for path in (p for p in done if p.name != "clay-size.csv"):
+    for path in (p for p in done if not p.name.endswith("size.csv")):
         again = pd.read_csv(path)
         assert again["c_kpa"].tolist() == pytest.approx([21.0, 22.0, 23.0, 40.0][:len(again)])
         assert again["phi_deg"].tolist()[:3] == pytest.approx([27.0] * 3)
@@ -1267,3 +1279,7 @@ def test_remeasure_reads_every_kept_check_again_and_records_the_posteriors(tmp_p
     assert pd.read_csv(tmp_path / "clay.csv")["c_kpa"].tolist() == [40.0] * 4          # what the filter weighed
     line = read_toml(config)["bench_posterior"]["check_packings"]
     assert line["seeds"] == [1, 2, 3, 4] and line["c_kpa"].startswith(verdict["c_kpa"]["mean_verdict"])
+    grown_line = read_toml(config)["bench_posterior"]["grown_box_packings"]      # c 27 and 28 kPa, φ 26° there
+    assert grown_line["box_mm"] == [338.0, 338.0, 225.0] and grown_line["seeds"] == [1, 2]
+    assert grown_line["c_kpa"].startswith("inside: 27.5") and grown_line["phi_deg"].startswith("inside: 26")
+    assert "collapse_deg" not in grown_line

@@ -874,6 +874,8 @@ def posterior_packings(soil: str, box_mm, folder: Path = BENCH_DIR, out_dir: Pat
     rows, box = {}, [float(v) for v in box_mm]
     for path in [p for p in paths if p.exists()]:
         table = at_posterior(pd.read_csv(path, comment="#", float_precision="round_trip"), post)
+        if not {"id", "seed"} <= set(table):
+            continue
         for row in table.to_dict(orient="records"):
             evaluation = out_dir / soil / str(row["id"])
             if (int(row["seed"]) not in rows and not isinstance(row.get("failed"), str)
@@ -1088,16 +1090,17 @@ def check_status(check_result: dict) -> str:
                                     "; the packings' mean outside: " + ", ".join(off))
 
 
-def packings_line(result: dict, seeds: list[int]) -> str:
-    """The posterior's check on more packings (`check_packings`) as its `[bench_posterior]` line: per response the
-    verdict of the packings' mean, the mean and its 95 % interval.
+def packings_line(result: dict, seeds: list[int], key: str = "check_packings", box_mm=None) -> str:
+    """The posterior's check on more packings (`check_packings`) as its `[bench_posterior]` line `key`: per response
+    the verdict of the packings' mean, the mean and its 95 % interval (`box_mm`: the shear box's size, where named).
 
     >>> packings_line({"c_kpa": {"mean": 23.71, "mean_interval": [20.43, 27.0], "mean_verdict": "inside"}}, [1, 2, 3])
     'check_packings = { seeds = [1, 2, 3], c_kpa = "inside: 23.7 [20.4, 27]" }'
     """
     verdicts = [f'{r} = "{v["mean_verdict"]}: {v["mean"]:.3g} [{v["mean_interval"][0]:.3g}, {v["mean_interval"][1]:.3g}]"'
                 for r, v in result.items()]
-    return "check_packings = { " + ", ".join([f"seeds = {list(map(int, seeds))}", *verdicts]) + " }"
+    box = [f"box_mm = {[float(v) for v in box_mm]}"] if box_mm is not None else []
+    return f"{key} = {{ " + ", ".join([*box, f"seeds = {list(map(int, seeds))}", *verdicts]) + " }"
 
 
 def posterior_block(soil: str, post: dict, check_result: dict, command: str, packings: str | None = None) -> str:
@@ -1141,10 +1144,17 @@ def write_posterior(soil: str, post: dict, check_result: dict, command: str, pat
 def record_packings(soil: str, result: dict, seeds: list[int], out_dir: Path = BENCH_DIR,
                     path: Path | None = None) -> Path:
     """The posterior's check on more packings written into the soil config's `[bench_posterior]` beside the filter's
-    posterior (<out_dir>/<soil>-posterior.json) and its check on the check packings (<soil>-check.json)."""
+    posterior (<out_dir>/<soil>-posterior.json) and its check on the check packings (<soil>-check.json), and where
+    the checks' box grown by half ([bench] check_size_check_mm) has run on two packings or more, its shear box's
+    verdicts there (`grown_box_packings`)."""
     post, three = (json.loads((Path(out_dir) / f"{soil}-{name}.json").read_text()) for name in ("posterior", "check"))
-    return write_posterior(soil, post, three, f"./holes calibrate --soil {soil} --bench", path,
-                           packings_line(result, seeds))
+    lines = [packings_line(result, seeds)]
+    box = load_config(soil=soil).get("check_size_check_mm")
+    grown = posterior_packings(soil, box, out_dir, out_dir) if box else pd.DataFrame()
+    if len(grown) > 1:
+        ranges = {r: result[r]["target"] for r in SHEAR_RESPONSES if r in result}
+        lines.append(packings_line(judged(grown, ranges), grown["seed"], "grown_box_packings", box))
+    return write_posterior(soil, post, three, f"./holes calibrate --soil {soil} --bench", path, "\n".join(lines))
 
 
 SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping", "pressed_adhesion")
