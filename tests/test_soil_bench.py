@@ -1283,3 +1283,31 @@ def test_remeasure_reads_every_kept_check_again_and_records_the_posteriors(tmp_p
     assert grown_line["box_mm"] == [338.0, 338.0, 225.0] and grown_line["seeds"] == [1, 2]
     assert grown_line["c_kpa"].startswith("inside: 27.5") and grown_line["phi_deg"].startswith("inside: 26")
     assert "collapse_deg" not in grown_line
+
+
+def test_a_posterior_drawn_under_another_reading_is_weighed_again_from_its_stored_tests(tmp_path):
+    """`reading_reweighted_run`: a filter drawn on the lid's load alone (no `shear_reading`) has its last iteration's
+    evaluations measured again from their stored tests and its samples weighed again: a sample whose c reads back
+    inside its range takes the weight; a filter drawn under the current reading gives no row."""
+    from analysis.soil.shear import READING
+    from analysis.soil.soils_apart import reading_reweighted_run
+    heap = {"profile_mm": [[x, max(0.0, min(100.0, 200.0 - x))] for x in range(0, 400, 2)]}
+    rows = []
+    for i, (bond, c) in enumerate(((1e5, 10.0), (2e5, 10.0))):
+        folder = tmp_path / "sand" / f"s{i}"
+        folder.mkdir(parents=True)
+        (folder / "box.json").write_text(json.dumps(shear_box(c, 34.0)))
+        (folder / "column.json").write_text(json.dumps(heap))
+        rows.append({"id": f"s{i}", "normal_cohesion": bond, "c_kpa": c + 10.0 * i, "phi_deg": 34.0,
+                     "collapse_deg": 30.0, "iteration": 2, "weight_last": 0.5})    # the second read 20 kPa as weighed
+    pd.DataFrame(rows).to_csv(tmp_path / "sand.csv", index=False)
+    post = {"names": ["normal_cohesion"], "mean": {"normal_cohesion": 1.5e5}, "interval": {"normal_cohesion": [1e5, 2e5]},
+            "likelihood_sigma": [0.01], "targets": {"c_kpa": [0, 12, "s"], "phi_deg": [26, 36, "s"]}}
+    (tmp_path / "sand-posterior.json").write_text(json.dumps(post))
+    table = pd.read_csv(reading_reweighted_run(tmp_path), comment="#").set_index("parameter")
+    assert table.loc["normal_cohesion", "mean_drawn"] == pytest.approx(1.5e5)
+    assert table.loc["normal_cohesion", "mean_reweighted"] == pytest.approx(2e5, rel=1e-3)   # its c read back inside
+    assert table.loc["normal_cohesion", "ess_drawn"] == pytest.approx(2.0)
+    assert table.loc["normal_cohesion", "ess_reweighted"] == pytest.approx(1.0, rel=1e-3)
+    (tmp_path / "sand-posterior.json").write_text(json.dumps({**post, "shear_reading": READING}))
+    assert reading_reweighted_run(tmp_path) is None

@@ -16,8 +16,10 @@ from scipy import stats
 from analysis.core.io import atomic_csv
 from analysis.core.soil_config import SOILS
 from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, cone_path, cone_range, difference_interval,
-                                             filter_seeds, load_config, mean_verdict, posterior_packings, runs_cone,
-                                             scene_result, shear_box_mm, SHEAR_RESPONSES, size_shift, target_ranges)
+                                             filter_seeds, load_config, mean_verdict, measured, posterior_packings,
+                                             runs_cone, scene_result, shear_box_mm, SHEAR_RESPONSES, size_shift,
+                                             target_ranges)
+from analysis.soil.shear import READING
 
 
 def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict]) -> pd.DataFrame:
@@ -266,6 +268,75 @@ def box_shift_run(out_dir: Path = BENCH_DIR) -> Path | None:
                "each box ran (its checks and size checks): the filter's box against the checks' and the checks' "
                "against it grown by half; the shift of each response's mean with its Welch 95 % interval, resolved "
                "when that leaves zero out; passes: under the configured box's packing SD")
+    return path
+
+
+def reading_reweighted(table: pd.DataFrame, post: dict, measured_table: pd.DataFrame) -> pd.DataFrame:
+    """A filter's last iteration weighed again under another reading of its evaluations: each sample's last weight
+    (`table`'s `weight_last`, as the filter weighed its responses) times the ratio of its likelihood under
+    `measured_table`'s responses (the same rows, read as the current code reads them) to that under the table's:
+    GrainLearning's Gaussian on the responses in units of their ranges (`in_ranges`), at the SD of the filter's last
+    iteration (`post`'s `likelihood_sigma`, `scale_cov_with_max`). Per calibrated parameter: the posterior mean as
+    drawn and so weighed again, the shift as a share of the posterior's 95 % interval, and both effective sample
+    sizes. The samples stay the filter's: how far the reading would move the posterior before a refit draws anew.
+
+    >>> t = pd.DataFrame({"a": [1.0, 3.0], "c_kpa": [6.0, 18.0], "weight_last": [0.5, 0.5]})
+    >>> post = {"names": ["a"], "mean": {"a": 2.0}, "interval": {"a": [1.0, 3.0]}, "likelihood_sigma": [0.01],
+    ...         "targets": {"c_kpa": [0.0, 12.0, "a source"]}}
+    >>> r = reading_reweighted(t, post, t)                          # read alike: weighed alike
+    >>> float(r["mean_drawn"].iloc[0]), float(r["mean_reweighted"].iloc[0]), float(r["shift_share"].iloc[0])
+    (2.0, 2.0, 0.0)
+    >>> r = reading_reweighted(t, post, t.assign(c_kpa=[6.0, 6.0]))   # the second sample's c read inside: its weight
+    >>> float(r["mean_reweighted"].round(3).iloc[0]), float(r["shift_share"].round(2).iloc[0])
+    (3.0, 0.5)
+    """
+    from analysis.soil.bayes import MIDDLE, in_ranges
+    ranges = {r: v[:2] for r, v in post["targets"].items() if r in RESPONSES}
+    sd = np.sqrt(post["likelihood_sigma"][-1]) * (MIDDLE + len(post["targets"]) - 1)
+
+    def misfit(t):
+        return np.sum([(t[r].map(lambda v, rg=rg: in_ranges(v, rg)).to_numpy(float) - MIDDLE) ** 2
+                       for r, rg in ranges.items() if r in t], axis=0)
+    drawn = table["weight_last"].to_numpy(float) / table["weight_last"].sum()
+    again = drawn * np.exp(-0.5 * (misfit(measured_table) - misfit(table)) / sd ** 2)
+    again = again / again.sum()
+    rows = []
+    for n in post["names"]:
+        lo, hi = post["interval"][n]
+        a, b = float(np.sum(drawn * table[n])), float(np.sum(again * table[n]))
+        rows.append({"parameter": n, "mean_drawn": a, "mean_reweighted": b, "interval_lo": lo, "interval_hi": hi,
+                     "shift_share": (b - a) / (hi - lo) if hi > lo else np.nan,
+                     "ess_drawn": float(1 / np.sum(drawn ** 2)), "ess_reweighted": float(1 / np.sum(again ** 2))})
+    return pd.DataFrame(rows)
+
+
+def reading_reweighted_run(out_dir: Path = BENCH_DIR) -> Path | None:
+    """reading-reweighted.csv: `reading_reweighted` of every soil whose filter drew its posterior under another
+    reading of the shear box than the current one (no `shear_reading`, or another), its last iteration's evaluations
+    measured again from their stored results; None when no soil's was."""
+    out_dir = Path(out_dir)
+    tables = []
+    for soil in SOILS:
+        paths = out_dir / f"{soil}.csv", out_dir / f"{soil}-posterior.json"
+        if not all(p.exists() for p in paths):
+            continue
+        post = json.loads(paths[1].read_text())
+        if post.get("shear_reading") == READING or "likelihood_sigma" not in post:
+            continue
+        table = pd.read_csv(paths[0], comment="#", float_precision="round_trip")
+        last = table[table["weight_last"].notna()].reset_index(drop=True)
+        again = pd.DataFrame([measured(r, out_dir / soil / str(r["id"]), kept_only=True)
+                              for r in last.to_dict(orient="records")])
+        tables.append(reading_reweighted(last, post, again).assign(soil=soil, drawn_under=post.get("shear_reading",
+                                                                                                   "the lid's load")))
+    if not tables:
+        return None
+    path = out_dir / "reading-reweighted.csv"
+    atomic_csv(pd.concat(tables).round(4), path,
+               f"./holes calibration-report; each filter drawn under another reading of the shear box than the current "
+               f"one ({READING}): its last iteration's samples weighed again with their responses measured again, "
+               "the posterior mean as drawn and so weighed, the shift as a share of the 95 % interval; the samples stay "
+               "the filter's")
     return path
 
 
