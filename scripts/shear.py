@@ -19,7 +19,9 @@ recorder (the shear force the upper half takes, and the shear and normal forces 
 plane through their contacts, against the shift, each over the sheared area). One fresh sample per normal stress,
 as a shear box test is run; the peak shear stress over a shift of SHEAR_STRAIN × the box's length is τ at that σn.
 Writes results/soils/shear/<bed key>-<stresses>.json (per σn: peak and residual τ, the plane's τ and σ, the lid's
-rise, the curve) with the Mohr-Coulomb fit (analysis/soil/shear.py), and prints the fit as a JSON line.
+rise, the curve) with the Mohr-Coulomb fit (analysis/soil/shear.py), and prints the fit as a JSON line. Each normal
+stress's test is kept beside it as it finishes (<bed key>-<σn>-<its settings' hash>.part.json) and reused by a run
+asking for the same, so a stopped run resumes at the stress it stopped in; the result written, they go.
 """
 from __future__ import annotations
 
@@ -208,8 +210,15 @@ def main(argv=None) -> int:
             raise ConfigError(f"--preload = {a.preload:g} kPa: allowed above the highest --stress ({max(stresses):g} "
                               "kPa), the load the sample is eased to")
         bed_path = bed.bed_from_args(a)
-        rows = [run(bed_path, a.soil, s, a.speed, a.threads, test, remoulded=a.remoulded, preload_kpa=a.preload)
-                for s in stresses]
+        out = Path(a.out) if a.out else ROOT / "results/soils/shear"
+        parts = [out / f"{bed_path.stem}-{s:g}-{test_key(test, a)}.part.json" for s in stresses]
+        rows = []
+        for s, part in zip(stresses, parts):        # each finished normal stress kept: a stopped run resumes there
+            if part.exists():
+                rows.append(json.loads(part.read_text()))
+                continue
+            rows.append(run(bed_path, a.soil, s, a.speed, a.threads, test, remoulded=a.remoulded, preload_kpa=a.preload))
+            atomic_write(part, json.dumps(rows[-1]))
     except (ConfigError, ValueError) as e:
         print(f"shear: {e}", file=sys.stderr)
         return 2
@@ -218,15 +227,24 @@ def main(argv=None) -> int:
         return 3
     from analysis.soil.shear import fit_tests
     fit = fit_tests(rows)
-    out = Path(a.out) if a.out else ROOT / "results/soils/shear"
     name = (f"{rows[0]['bed']}-{'_'.join(f'{s:g}' for s in stresses)}{'-remoulded' if a.remoulded else ''}"
             f"{f'-pre{a.preload:g}' if a.preload else ''}")
     summary = {"bed": rows[0]["bed"], "soil": rows[0]["soil"], "radius_mm": 1000 * rows[0]["radius_m"],
                **({"remoulded": True} if a.remoulded else {}), **({"preload_kpa": a.preload} if a.preload else {}),
                "overrides": test, **fit, "tests": rows}
     atomic_write(out / f"{name}.json", json.dumps(summary, indent=1))
+    for part in parts:
+        part.unlink(missing_ok=True)
     print(json.dumps({k: v for k, v in summary.items() if k != "tests"}))
     return 0
+
+
+def test_key(test: dict, a) -> str:
+    """What a sample's test is run with besides its bed and normal stress (the overrides, the speed, remoulded,
+    the preload), hashed: a kept test is reused only by a run asking for the same."""
+    import hashlib
+    key = {"overrides": test, "speed": a.speed, "remoulded": a.remoulded, "preload": a.preload}
+    return hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:8]
 
 
 if __name__ == "__main__":

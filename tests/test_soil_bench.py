@@ -1311,3 +1311,31 @@ def test_a_posterior_drawn_under_another_reading_is_weighed_again_from_its_store
     assert table.loc["normal_cohesion", "ess_reweighted"] == pytest.approx(1.0, rel=1e-3)
     (tmp_path / "sand-posterior.json").write_text(json.dumps({**post, "shear_reading": READING}))
     assert reading_reweighted_run(tmp_path) is None
+
+
+def test_a_stopped_shear_run_resumes_at_the_normal_stress_it_stopped_in(tmp_path, monkeypatch):
+    """scripts/shear.py keeps each normal stress's test as it finishes: run again after a stop in its second stress,
+    it runs that stress and the next only, reuses none of them for other settings, and leaves no kept test behind
+    once its result is written."""
+    import scripts.beds as beds
+    import scripts.shear as shear
+    monkeypatch.setattr(beds, "bed_from_args", lambda a: tmp_path / "beds" / "sand-medium-150x150x100-s1-abc.npz")
+    ran = []
+
+    def made_up(bed_path, soil, stress, speed, threads, test, remoulded=False, preload_kpa=None):
+        ran.append((stress, speed))
+        if stress == 100.0 and len(ran) == 2:
+            raise RuntimeError("made-up stop")
+        return shear_box(10.0, 30.0)["tests"][[50.0, 100.0, 200.0].index(stress)] | {"bed": bed_path.stem, "soil": soil,
+                                                                                     "radius_m": 0.006}
+    monkeypatch.setattr(shear, "run", made_up)
+    argv = ["--soil", "sand", "--stress", "50,100,200", "--speed", "0.1", "--out", str(tmp_path / "out")]
+    assert shear.main(argv) == 3 and ran == [(50.0, 0.1), (100.0, 0.1)]
+    assert len(list((tmp_path / "out").glob("*.part.json"))) == 1
+    assert shear.main(argv) == 0 and ran[2:] == [(100.0, 0.1), (200.0, 0.1)]
+    assert not list((tmp_path / "out").glob("*.part.json"))
+    result = json.loads(next((tmp_path / "out").glob("*.json")).read_text())
+    assert [t["stress_kpa"] for t in result["tests"]] == [50.0, 100.0, 200.0]
+    assert result["c_kpa"] == pytest.approx(10.0, abs=0.01)
+    shear.main([*argv[:-2], "--speed", "0.05", "--out", str(tmp_path / "out")])     # other settings: all three run
+    assert ran[4:] == [(50.0, 0.05), (100.0, 0.05), (200.0, 0.05)]
