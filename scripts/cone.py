@@ -142,8 +142,8 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     name = cone_result_name(meta["key"], cone_scale, speed, soil.normal_cohesion)
     tested = cone_tested(overrides or {}, soil.normal_cohesion, soil.shear_cohesion)
     if tested:                         # a law tested on the configured bed: named apart from the configured soil's runs
-        import hashlib
-        name += "-t" + hashlib.sha1(json.dumps(sorted(tested.items())).encode()).hexdigest()[:8]
+        from analysis.core.schema import digest
+        name += "-t" + digest(sorted(tested.items()))
         summary["overrides"] = tested
     atomic_write(out_dir / f"{name}.csv", "base_depth_m,resistance_pa\n" + "".join(f"{a:.5f},{b:.1f}\n" for a, b in rows))
     atomic_write(out_dir / f"{name}.json", json.dumps(summary, indent=1))

@@ -24,7 +24,6 @@ the hole's table and pictures to results/pepper/duckbeak/.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import math
 import sys
@@ -34,7 +33,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.core.cli_types import folder, option, CommandLine
 from analysis.core.config import SEED, THREADS, load_resolution
-from analysis.core.schema import ROOT, as_dict, check_table, read_toml, ConfigError, Field
+from analysis.core.schema import ROOT, as_dict, check_table, digest, read_toml, ConfigError, Field
 from analysis.core.soil_config import load_soil, parse_overrides
 from analysis.core.bed_spec import BED_DIR  # noqa: E402
 from analysis.core.io import atomic_write, provenance  # noqa: E402
@@ -97,8 +96,7 @@ def plan(path="configs/pepper.toml", **changes) -> dict:
               "pass": dataclasses.asdict(ps),
               "x_shift_mm": (length - (reach[1] - reach[0])) / 2 - reach[0],     # the reach centred in the bed
               "bed_size_mm": [length, scene["width"], depth]}
-    digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
-    params["id"] = f"duckbeak-{soil.name}-{scene['resolution']}-{digest}"
+    params["id"] = f"duckbeak-{soil.name}-{scene['resolution']}-{digest(params)}"
     return params
 
 

@@ -33,7 +33,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.core.cli_types import folder, option  # noqa: E402
-from analysis.core.schema import ROOT, ConfigError, Field
+from analysis.core.schema import ROOT, ConfigError, Field, digest
 from analysis.core.io import atomic_write  # noqa: E402
 
 STRESS = Field(1.0, 1000.0, unit="kPa", meaning="normal stress on the sample")
@@ -211,7 +211,7 @@ def main(argv=None) -> int:
                               "kPa), the load the sample is eased to")
         bed_path = bed.bed_from_args(a)
         out = Path(a.out) if a.out else ROOT / "results/soils/shear"
-        parts = [out / f"{bed_path.stem}-{s:g}-{test_key(test, a)}.part.json" for s in stresses]
+        parts = [out / f"{bed_path.stem}-{s:g}-{settings_digest(test, a)}.part.json" for s in stresses]
         rows = []
         for s, part in zip(stresses, parts):        # each finished normal stress kept: a stopped run resumes there
             if part.exists():
@@ -239,12 +239,10 @@ def main(argv=None) -> int:
     return 0
 
 
-def test_key(test: dict, a) -> str:
+def settings_digest(test: dict, a) -> str:
     """What a sample's test is run with besides its bed and normal stress (the overrides, the speed, remoulded,
     the preload), hashed: a kept test is reused only by a run asking for the same."""
-    import hashlib
-    key = {"overrides": test, "speed": a.speed, "remoulded": a.remoulded, "preload": a.preload}
-    return hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:8]
+    return digest({"overrides": test, "speed": a.speed, "remoulded": a.remoulded, "preload": a.preload})
 
 
 if __name__ == "__main__":

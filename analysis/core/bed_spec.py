@@ -2,11 +2,9 @@
 graded zones. scripts/beds.py (the part that settles it) and the analysis side both use these."""
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 
-from analysis.core.schema import ROOT, ConfigError, Field
+from analysis.core.schema import ROOT, ConfigError, Field, digest
 
 BED_DIR = ROOT / "results/cache/beds"           # settled beds, made once and loaded by every scene
 CONE_DIR = ROOT / "results/cache/cone"          # cone runs, reused by the calibration and its checks
@@ -25,10 +23,9 @@ def bed_key(soil, res, size, seed: int, lateral: str = "walls", tiles: int = 1) 
         params["version"] = 2          # the periodic cloud (version 1 left a loose column along the cell's sides)
     if tiles > 1:
         params["tiles"] = tiles
-    digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
     L, W, D = round(1000 * size[0] * tiles), round(1000 * size[1] * tiles), round(1000 * size[2])
     sides = ("-per" if lateral == "periodic" else "") + (f"-t{tiles}" if tiles > 1 else "")
-    return f"{soil.name}-{res.name}-{L}x{W}x{D}{sides}-s{seed}-{digest}"
+    return f"{soil.name}-{res.name}-{L}x{W}x{D}{sides}-s{seed}-{digest(params)}"
 
 
 def mean_volume(r: float, spread: float) -> float:

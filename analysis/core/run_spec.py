@@ -5,15 +5,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import hashlib
-import json
 import math
 
 from analysis.core.bed_spec import BED_DIR, check_grains_fit, check_graded
 from analysis.core.cli_types import folder, option, CommandLine
 from analysis.core.config import (AWAKE, PRESET_FIELDS, SEED, SLIP, THREADS, check_awake, load_disk, load_machine,
                                   load_preset, load_resolution, load_sleeve, preset_with, tool_with)
-from analysis.core.schema import as_dict, ConfigError, Field
+from analysis.core.schema import as_dict, ConfigError, digest, Field
 from analysis.core.soil_config import SOIL_DEFAULTS, bench_soil, load_soil, parse_overrides, soil_with
 from analysis.core.kinematics import TIP_SPHERE_RATIO, layout
 
@@ -36,8 +34,7 @@ MODES = ("prescribed", "free")
 
 
 def run_id(params: dict) -> str:
-    digest = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
-    return f"{params['soil']['name']}-{params['preset']['name']}-{params['mode']}-{digest}"
+    return f"{params['soil']['name']}-{params['preset']['name']}-{params['mode']}-{digest(params)}"
 
 
 @dataclasses.dataclass(frozen=True)

@@ -4,6 +4,8 @@ disk's, presets', soils' ... schemas and loaders are in config.py and soil_confi
 """
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import tomllib
 from dataclasses import dataclass, fields
@@ -136,3 +138,13 @@ def check_sources(path, sources: dict, schema: dict):
 
 def as_dict(obj) -> dict:
     return {f.name: getattr(obj, f.name) for f in fields(obj)}
+
+
+def digest(obj, length: int = 8) -> str:
+    """The short hash a name carries of what it was made with (`obj`, as JSON with its keys sorted): the same inputs,
+    the same name.
+
+    >>> digest({"b": 1, "a": [0.5, None]}) == digest({"a": [0.5, None], "b": 1}), len(digest({}, 10))
+    (True, 10)
+    """
+    return hashlib.sha1(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:length]

@@ -39,6 +39,16 @@ def in_ranges(value, target) -> float:
     return 1.0 + (value - lo) / (hi - lo) if np.isfinite(value) else 1000.0
 
 
+def largest_step(targets: dict) -> float:
+    """The largest observation the filter sees for these targets (the last response's range middle): GrainLearning
+    scales its likelihood's covariance with it (`scale_cov_with_max`), so its SD is sqrt(sigma) times this.
+
+    >>> largest_step({"c": (0, 12), "phi": (26, 36), "slope": (28, 38)})
+    3.5
+    """
+    return MIDDLE + len(targets) - 1
+
+
 def sigma_floor(targets: dict, scatter: dict) -> float:
     """GrainLearning's lowest sigma for targets {response: (lo, hi)} whose runs scatter by `scatter` {response: SD}
     over packings: its likelihood's SD (sqrt(sigma) times the largest step, `scale_cov_with_max`) is then the RMS of
@@ -53,7 +63,7 @@ def sigma_floor(targets: dict, scatter: dict) -> float:
         raise ValueError(f"calibrate: scatter of {(missing or bad)[0]}: allowed an SD above 0 for every target "
                          f"({', '.join(targets)})")
     sd = np.sqrt(np.mean([(float(scatter[r]) / (float(hi) - float(lo))) ** 2 for r, (lo, hi) in targets.items()]))
-    return float((sd / (MIDDLE + len(targets) - 1)) ** 2)
+    return float((sd / largest_step(targets)) ** 2)
 
 
 def first_samples(bounds: dict, samples: int, seed: int = 0) -> np.ndarray:

@@ -12,7 +12,6 @@ posterior mean is checked on three packings and on the cone beside Table 2 (`che
 """
 from __future__ import annotations
 
-import hashlib
 import io
 import json
 import math
@@ -29,7 +28,7 @@ from scipy import stats
 from analysis.core.config import SEED
 from analysis.core.io import atomic_csv, atomic_write, say
 from analysis.core.runner import run_logged
-from analysis.core.schema import ROOT, ConfigError
+from analysis.core.schema import ROOT, ConfigError, digest
 from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS
 from analysis.soil.shear import READING, fit_tests
 
@@ -224,7 +223,7 @@ def evaluation_id(soil: str, seed: int, params: dict, cfg: dict) -> str:
         key["fixed"] = dict(sorted(cfg["fixed"].items()))
     if collapse_size(cfg) != list(cfg["size_mm"]):     # likewise a collapse column of its own
         key["collapse_size_mm"] = collapse_size(cfg)
-    return f"s{seed}-{hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]}"
+    return f"s{seed}-{digest(key, 10)}"
 
 
 def rounded(params: dict) -> dict:
@@ -857,7 +856,7 @@ def at_posterior(table: pd.DataFrame, post: dict) -> pd.DataFrame:
     want = rounded(post)
     if any(k not in table for k in want):
         return table.iloc[:0]
-    return table[np.all([table[k].map(lambda v: float(f"{v:.4g}")) == v for k, v in want.items()], axis=0)]
+    return table[[rounded({k: row[k] for k in want}) == want for row in table.to_dict(orient="records")]]
 
 
 def posterior_packings(soil: str, box_mm, folder: Path = BENCH_DIR, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
@@ -892,8 +891,7 @@ def cone_path(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, see
         c["seed"] = int(seed)
     key = {"params": dict(sorted(rounded(params).items())), "fixed": dict(sorted(cfg.get("fixed", {}).items())),
            "cone": {k: v for k, v in sorted(c.items()) if k not in ("tolerance", "transfer")}}
-    digest = hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]
-    return Path(out_dir) / "cone" / f"{soil}-s{c['seed']}-{digest}.json", c
+    return Path(out_dir) / "cone" / f"{soil}-s{c['seed']}-{digest(key, 10)}.json", c
 
 
 def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, seed: int | None = None) -> dict:

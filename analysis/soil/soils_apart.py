@@ -290,9 +290,9 @@ def reading_reweighted(table: pd.DataFrame, post: dict, measured_table: pd.DataF
     >>> float(r["mean_reweighted"].round(3).iloc[0]), float(r["shift_share"].round(2).iloc[0])
     (3.0, 0.5)
     """
-    from analysis.soil.bayes import MIDDLE, in_ranges
+    from analysis.soil.bayes import MIDDLE, in_ranges, largest_step
     ranges = {r: v[:2] for r, v in post["targets"].items() if r in RESPONSES}
-    sd = np.sqrt(post["likelihood_sigma"][-1]) * (MIDDLE + len(post["targets"]) - 1)
+    sd = np.sqrt(post["likelihood_sigma"][-1]) * largest_step(post["targets"])
 
     def misfit(t):
         return np.sum([(t[r].map(lambda v, rg=rg: in_ranges(v, rg)).to_numpy(float) - MIDDLE) ** 2
