@@ -26,7 +26,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.core.cli_types import folder, option
 from analysis.core.config import CONE_DEPTH, CONE_FIELDS
-from analysis.core.schema import ConfigError  # noqa: E402
+from analysis.core.schema import ConfigError, digest  # noqa: E402
 from analysis.core.bed_spec import CONE_DIR  # noqa: E402
 from analysis.core.soil_config import SOIL_FIELDS, load_soil, soil_with
 from analysis.core.io import atomic_write  # noqa: E402
@@ -142,7 +142,6 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     name = cone_result_name(meta["key"], cone_scale, speed, soil.normal_cohesion)
     tested = cone_tested(overrides or {}, soil.normal_cohesion, soil.shear_cohesion)
     if tested:                         # a law tested on the configured bed: named apart from the configured soil's runs
-        from analysis.core.schema import digest
         name += "-t" + digest(sorted(tested.items()))
         summary["overrides"] = tested
     atomic_write(out_dir / f"{name}.csv", "base_depth_m,resistance_pa\n" + "".join(f"{a:.5f},{b:.1f}\n" for a, b in rows))

@@ -211,7 +211,8 @@ def main(argv=None) -> int:
                               "kPa), the load the sample is eased to")
         bed_path = bed.bed_from_args(a)
         out = Path(a.out) if a.out else ROOT / "results/soils/shear"
-        parts = [out / f"{bed_path.stem}-{s:g}-{settings_digest(test, a)}.part.json" for s in stresses]
+        settings = settings_digest(test, a)
+        parts = [out / f"{bed_path.stem}-{s:g}-{settings}.part.json" for s in stresses]
         rows = []
         for s, part in zip(stresses, parts):        # each finished normal stress kept: a stopped run resumes there
             if part.exists():
