@@ -105,7 +105,7 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     for i in upper_ids:
         O.bodies[i].state.vel = (speed, 0, 0)
     O.bodies[lid_id].state.vel = (speed, 0, 0)          # x is blocked: the lid keeps this speed along x
-    t_shear = O.time
+    t_shear, wall_shear0 = O.time, time.time()
     report = max(1, n_shear // 10)
     chunk = CHUNK
     escaped = 0
@@ -121,7 +121,8 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
         if (O.iter - n_sheared_from) % report < chunk:
             log(f"shear σn {stress_kpa:g} kPa: {100 * shift / travel:3.0f} %  τ {rows[-1][1] / 1e3:6.1f} kPa  "
                 f"at the plane {abs(rows[-1][3]) / 1e3:6.1f} kPa under σ {abs(rows[-1][4]) / 1e3:6.1f} kPa  "
-                f"lid {1000 * rows[-1][2]:+.1f} mm  wall {time.time() - wall0:.0f} s")
+                f"lid {1000 * rows[-1][2]:+.1f} mm  wall {time.time() - wall0:.0f} s, "
+                f"ETA {(time.time() - wall_shear0) * (travel - shift) / max(shift, 1e-12):.0f} s")
         escaped += remove_escaped(O, grains, L + push_room(speed, O.time - t_shear), W, 2 * r)
         if escaped > MAX_ESCAPED * n_grains:
             raise RuntimeError(f"shear: {escaped} grains left the box through the frames' gap (the box leaks)")

@@ -1161,6 +1161,25 @@ def test_the_box_shift_is_the_size_check_of_each_box_over_every_packing_it_ran(t
     assert grown.loc["c_kpa", "grown_mm"] == "338x338x225"
 
 
+def test_the_pooled_box_shift_weighs_each_soil_by_its_scatter_and_pools_one_box_pair_at_a_time(tmp_path):
+    """`box_shift_pooled_run`: box-shift.csv's soils pooled per box pair and response; the soil read on more packings
+    weighs more, a box pair checked in one soil gives no row, and soils moving apart show in Cochran's Q."""
+    from analysis.soil.soils_apart import box_shift_pooled_run
+    assert box_shift_pooled_run(tmp_path) is None
+
+    def row(soil, small, big, response, shift, grown_n):
+        return {"response": response, "configured_sd": 3.0, "configured_n": 9, "grown_sd": 3.0, "grown_n": grown_n,
+                "shift": shift, "soil": soil, "configured_mm": small, "grown_mm": big}
+    pd.DataFrame([row("clay", "225", "338", "c_kpa", -2.0, 4), row("sand", "225", "338", "c_kpa", -5.0, 40),
+                  row("clay", "225", "338", "phi_deg", -3.0, 4), row("sand", "225", "338", "phi_deg", 3.0, 40),
+                  row("sand", "150", "225", "c_kpa", 1.0, 9)]).to_csv(tmp_path / "box-shift.csv", index=False)
+    table = pd.read_csv(box_shift_pooled_run(tmp_path), comment="#").set_index("response")
+    assert set(table.configured_mm) == {225} and set(table.soils_pooled) == {"clay sand"}
+    assert -5.0 < table.loc["c_kpa", "shift"] < -3.5                       # nearer sand's, read on ten times more
+    assert table.loc["c_kpa", "resolved"] and table.loc["c_kpa", "q_p"] > 0.05
+    assert table.loc["phi_deg", "q_p"] < table.loc["c_kpa", "q_p"]
+
+
 def test_the_cone_per_c_table_reads_each_checked_sets_box_and_its_kept_cones_at_the_runs_grains(tmp_path):
     """`cone_per_c_run`: a set checked on three packings with its cone kept at the runs' grains on two gives one row,
     the cone per kPa of c and the c that ratio asks for Table 2's floor; a set with no cone kept gives none."""

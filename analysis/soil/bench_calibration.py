@@ -371,18 +371,26 @@ def in_turn(seeds: list[int], rows: list) -> list[tuple[int, dict]]:
     return [(seeds[i % len(seeds)], p) for i, p in enumerate(rows)]
 
 
+REUSED_S = 5.0          # s: a job done sooner reused kept results (a twin's evaluation, a finished scene)
+
+
 def in_parallel(fn, jobs: list, workers: int, label: str, unit: str) -> list:
     """fn of each job, `workers` at a time (threads, each starting its own YADE process), in the jobs' order;
-    after each one says how many are done, the time so far and an ETA."""
+    after each one says how many are done, the time so far and an ETA from the jobs that ran (a job done within
+    REUSED_S reused a kept result and says nothing of the time the others take)."""
     done: list = []
+    ran: list[float] = []
     wall0 = time.time()
 
     def one(job):
+        t0 = time.time()
         out = fn(job)
         done.append(job)
-        elapsed = time.time() - wall0
-        say(f"{label}: {len(done)}/{len(jobs)} {unit} done, {elapsed:.0f} s, "
-            f"ETA {elapsed / len(done) * (len(jobs) - len(done)):.0f} s")
+        if time.time() - t0 > REUSED_S:
+            ran.append(time.time() - t0)
+        left = len(jobs) - len(done)
+        eta = f"{sum(ran) / len(ran) * math.ceil(left / workers):.0f} s" if ran else "unknown until one has run"
+        say(f"{label}: {len(done)}/{len(jobs)} {unit} done, {time.time() - wall0:.0f} s, ETA {eta}")
         return out
 
     with ThreadPoolExecutor(max_workers=workers) as pool:
@@ -822,6 +830,42 @@ def size_shift(configured: pd.DataFrame, grown: pd.DataFrame, responses=RESPONSE
                      "grown_mean": float(b.mean()), "grown_sd": float(np.std(b, ddof=1)) if len(b) > 1 else math.nan,
                      "grown_n": len(b), "shift": shift, "shift_lo": lo, "shift_hi": hi,
                      "resolved": bool(lo > 0 or hi < 0), "passes": bool(abs(shift) < sd)})
+    return pd.DataFrame(rows)
+
+
+def pooled_shift(shifts: pd.DataFrame, level: float = 0.95) -> pd.DataFrame:
+    """Several soils' size checks of one box pair (`size_shift` rows, a soil each) pooled per response: the
+    fixed-effect mean of their shifts, each weighed by its inverse Welch variance, with its t interval at the
+    Satterthwaite degrees of freedom and whether that leaves zero out; and Cochran's Q with its p-value (small: the
+    soils' shifts differ beyond their scatter, and one shift for all summarises them poorly). A response needs two
+    soils with two packings or more in each box.
+
+    >>> one = {"configured_sd": 2.0, "configured_n": 9, "grown_sd": 2.0, "grown_n": 4, "response": "c_kpa"}
+    >>> t = pd.DataFrame([{**one, "shift": -3.0}, {**one, "shift": -4.0}, {**one, "shift": -3.5}])
+    >>> p = pooled_shift(t).iloc[0]
+    >>> float(p["shift"]), int(p["soils"]), bool(p["resolved"]), round(float(p["q_p"]), 2)
+    (-3.5, 3, True, 0.84)
+    >>> apart = pooled_shift(t.assign(shift=[-4.0, -3.0, 4.0])).iloc[0]      # a soil that moves the other way
+    >>> bool(apart["resolved"]), bool(apart["q_p"] < 0.01)
+    (False, True)
+    >>> pooled_shift(t[:1]).empty                                   # one soil: nothing to pool
+    True
+    """
+    rows = []
+    for response, t in shifts.groupby("response", sort=False):
+        t = t[(t["configured_n"] > 1) & (t["grown_n"] > 1)]
+        if len(t) < 2:
+            continue
+        va, vb = (t[f"{b}_sd"] ** 2 / t[f"{b}_n"] for b in ("configured", "grown"))
+        w = 1 / (va + vb)
+        k = w / w.sum()
+        shift, var = float((k * t["shift"]).sum()), float(1 / w.sum())
+        dof = var ** 2 / float((k ** 4 * (va ** 2 / (t["configured_n"] - 1) + vb ** 2 / (t["grown_n"] - 1))).sum())
+        half = stats.t.ppf(0.5 + level / 2, dof) * math.sqrt(var)
+        q = float((w * (t["shift"] - shift) ** 2).sum())
+        rows.append({"response": response, "soils": len(t), "shift": shift, "shift_lo": shift - half,
+                     "shift_hi": shift + half, "dof": dof, "resolved": bool(shift - half > 0 or shift + half < 0),
+                     "q": q, "q_p": float(stats.chi2.sf(q, len(t) - 1))})
     return pd.DataFrame(rows)
 
 

@@ -17,8 +17,8 @@ from analysis.core.io import atomic_csv
 from analysis.core.soil_config import SOILS
 from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, cone_path, cone_range, difference_interval,
                                              filter_seeds, load_config, mean_verdict, measured, posterior_packings,
-                                             runs_cone, scene_result, shear_box_mm, SHEAR_RESPONSES, size_shift,
-                                             target_ranges)
+                                             pooled_shift, runs_cone, scene_result, shear_box_mm, SHEAR_RESPONSES,
+                                             size_shift, target_ranges)
 from analysis.soil.shear import READING
 
 
@@ -268,6 +268,25 @@ def box_shift_run(out_dir: Path = BENCH_DIR) -> Path | None:
                "each box ran (its checks and size checks): the filter's box against the checks' and the checks' "
                "against it grown by half; the shift of each response's mean with its Welch 95 % interval, resolved "
                "when that leaves zero out; passes: under the configured box's packing SD")
+    return path
+
+
+def box_shift_pooled_run(out_dir: Path = BENCH_DIR) -> Path | None:
+    """box-shift-pooled.csv: box-shift.csv's soils pooled per box pair and response (`pooled_shift`): whether growing
+    the box moves every soil's mean alike, beside each soil's own size check; None when no pair has two soils."""
+    source = Path(out_dir) / "box-shift.csv"
+    if not source.exists():
+        return None
+    shifts = pd.read_csv(source, comment="#")
+    table = pd.concat([pooled_shift(t).assign(configured_mm=small, grown_mm=big, soils_pooled=" ".join(t["soil"].unique()))
+                       for (small, big), t in shifts.groupby(["configured_mm", "grown_mm"], sort=False)])
+    if table.empty:
+        return None
+    path = Path(out_dir) / "box-shift-pooled.csv"
+    atomic_csv(table.round(3), path,
+               "./holes calibration-report; box-shift.csv's soils pooled per box pair and response: the fixed-effect "
+               "mean of their shifts weighed by inverse Welch variance, its 95 % t interval (Satterthwaite dof), "
+               "resolved when that leaves zero out; Cochran's Q and its p-value (small: the soils' shifts differ)")
     return path
 
 
