@@ -21,7 +21,8 @@ as a shear box test is run; the peak shear stress over a shift of SHEAR_STRAIN �
 Writes results/soils/shear/<bed key>-<stresses>.json (per σn: peak and residual τ, the plane's τ and σ, the lid's
 rise, the curve) with the Mohr-Coulomb fit (analysis/soil/shear.py), and prints the fit as a JSON line. Each normal
 stress's test is kept beside it as it finishes (<bed key>-<σn>-<its settings' hash>.part.json) and reused by a run
-asking for the same, so a stopped run resumes at the stress it stopped in; the result written, they go.
+asking for the same of the same code, so a stopped run resumes at the stress it stopped in; the result written, they
+go.
 """
 from __future__ import annotations
 
@@ -44,6 +45,7 @@ LID_T = 0.01                   # m: the lid's half-thickness
 FRAME_T = 0.002                # m: the frames' half-thickness (a thin edge at the shear plane)
 GAP = 0.9                      # the gap between the frames, in the smallest grain's diameters: no grain passes it
 MAX_ESCAPED = 0.01             # the share of the grains that may leave through the gap before the box is a leak
+SCENE_SOURCES = tuple(ROOT / "scripts" / n for n in ("shear.py", "soil.py", "beds.py"))   # the code a kept test ran
 CHUNK = 50                     # steps between two records of the curve (0.09 mm of shift at 0.05 m/s, r = 6 mm)
 
 
@@ -242,9 +244,14 @@ def main(argv=None) -> int:
 
 
 def settings_digest(test: dict, a) -> str:
-    """What a sample's test is run with besides its bed and normal stress (the overrides, the speed, remoulded,
-    the preload), hashed: a kept test is reused only by a run asking for the same."""
-    return digest({"overrides": test, "speed": a.speed, "remoulded": a.remoulded, "preload": a.preload})
+    """What a sample's test is run with besides its bed and normal stress (the soil's contact law with the test's
+    overrides, the speed, remoulded, the preload) and the code that runs it (SCENE_SOURCES), hashed: a kept test is
+    reused only by a run asking for the same of the same code."""
+    import dataclasses
+    from analysis.core.soil_config import load_soil, soil_with
+    return digest({"soil": dataclasses.asdict(soil_with(load_soil(a.soil), test)), "speed": a.speed,
+                   "remoulded": a.remoulded, "preload": a.preload,
+                   "code": [p.read_text() for p in SCENE_SOURCES]})
 
 
 if __name__ == "__main__":

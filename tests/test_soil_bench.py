@@ -1334,11 +1334,14 @@ def test_a_posterior_drawn_under_another_reading_is_weighed_again_from_its_store
 
 def test_a_stopped_shear_run_resumes_at_the_normal_stress_it_stopped_in(tmp_path, monkeypatch):
     """scripts/shear.py keeps each normal stress's test as it finishes: run again after a stop in its second stress,
-    it runs that stress and the next only, reuses none of them for other settings, and leaves no kept test behind
-    once its result is written."""
+    it runs that stress and the next only, reuses none of them for other settings, another soil law or other code,
+    and leaves no kept test behind once its result is written."""
     import scripts.beds as beds
     import scripts.shear as shear
     monkeypatch.setattr(beds, "bed_from_args", lambda a: tmp_path / "beds" / "sand-medium-150x150x100-s1-abc.npz")
+    code = tmp_path / "scene.py"
+    code.write_text("the scene")
+    monkeypatch.setattr(shear, "SCENE_SOURCES", (code,))
     ran = []
 
     def made_up(bed_path, soil, stress, speed, threads, test, remoulded=False, preload_kpa=None):
@@ -1358,3 +1361,13 @@ def test_a_stopped_shear_run_resumes_at_the_normal_stress_it_stopped_in(tmp_path
     assert result["c_kpa"] == pytest.approx(10.0, abs=0.01)
     shear.main([*argv[:-2], "--speed", "0.05", "--out", str(tmp_path / "out")])     # other settings: all three run
     assert ran[4:] == [(50.0, 0.05), (100.0, 0.05), (200.0, 0.05)]
+    import dataclasses
+    import analysis.core.soil_config as soil_config
+    load = soil_config.load_soil
+    for change in (lambda: code.write_text("the scene, changed"),                  # stopped, then the code changes
+                   lambda: monkeypatch.setattr(soil_config, "load_soil",         # or the soil's configured law
+                                               lambda name: dataclasses.replace(load(name), damping=0.3))):
+        del ran[:]
+        assert shear.main(argv) == 3 and ran == [(50.0, 0.1), (100.0, 0.1)]
+        change()
+        assert shear.main(argv) == 0 and ran[2:] == [(50.0, 0.1), (100.0, 0.1), (200.0, 0.1)]
