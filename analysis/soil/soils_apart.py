@@ -278,7 +278,8 @@ def box_shift_pooled_run(out_dir: Path = BENCH_DIR) -> Path | None:
     if not source.exists():
         return None
     shifts = pd.read_csv(source, comment="#")
-    table = pd.concat([pooled_shift(t).assign(configured_mm=small, grown_mm=big, soils_pooled=" ".join(t["soil"].unique()))
+    table = pd.concat([pooled_shift(t).assign(configured_mm=small, grown_mm=big,
+                                              soils_pooled=" ".join(t["soil"].unique()))
                        for (small, big), t in shifts.groupby(["configured_mm", "grown_mm"], sort=False)])
     if table.empty:
         return None
