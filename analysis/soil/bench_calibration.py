@@ -386,8 +386,9 @@ def in_parallel(fn, jobs: list, workers: int, label: str, unit: str) -> list:
         t0 = time.time()
         out = fn(job)
         done.append(job)
-        if time.time() - t0 > REUSED_S:
-            ran.append(time.time() - t0)
+        took = time.time() - t0
+        if took > REUSED_S:
+            ran.append(took)
         left = len(jobs) - len(done)
         eta = f"{sum(ran) / len(ran) * math.ceil(left / workers):.0f} s" if ran else "unknown until one has run"
         say(f"{label}: {len(done)}/{len(jobs)} {unit} done, {time.time() - wall0:.0f} s, ETA {eta}")
