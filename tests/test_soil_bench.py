@@ -1018,29 +1018,60 @@ def test_a_running_filter_with_fewer_cones_than_plane_terms_still_gets_its_repor
     assert "cone_kpa" not in deepest and np.isfinite(deepest["margin_sd"]).all()
 
 
+CHECKED_SET = {"normal_cohesion": 1.2e5, "friction_deg": 19.0, "pressed_adhesion": 0.06, "rolling_friction": 0.04,
+               "damping": 0.14}      # a posterior mean the made-up checks ran
+
+
+def checked_rows(root: Path, soil: str, name: str, box_mm, cs, phis=None, **params) -> pd.DataFrame:
+    """A made-up check of CHECKED_SET (`params` over it) on packings 1, 2, …: per packing an evaluation folder
+    root/<soil>/<name><seed> holding a `box_mm` shear box of c `cs[i]` and φ `phis[i]` (30° or 31° by packing when
+    None) and a collapse heap, and the table's row (its c left 0: the reading comes from the folder)."""
+    heap = {"profile_mm": [[x, max(0.0, min(100.0, 200.0 - x))] for x in range(0, 400, 2)]}
+    out = []
+    for seed, c in enumerate(cs, start=1):
+        folder = root / soil / f"{name}{seed}"
+        folder.mkdir(parents=True)
+        box = shear_box(c, phis[seed - 1] if phis else 30.0 + seed % 2, size=box_mm[0] / 1000)
+        for t in box["tests"]:
+            t["size_m"] = [v / 1000 for v in box_mm]
+        (folder / "box.json").write_text(json.dumps(box))
+        (folder / "column.json").write_text(json.dumps(heap))
+        out.append({"id": f"{name}{seed}", "soil": soil, "seed": seed, **{**CHECKED_SET, **params}, "c_kpa": 0.0})
+    return pd.DataFrame(out)
+
+
 def test_soils_apart_reads_a_response_as_telling_two_soils_apart_only_when_its_interval_leaves_zero_out(tmp_path):
-    """Made-up checks: c differs by 12 kPa over a 1 kPa scatter (apart), φ by 0.3° over 1° (not); the parameter
-    intervals are disjoint for the bond only; the soils' own targets decide `targets_apart`."""
+    """Made-up checks over every packing of the checks' box: c differs by 12 kPa over a 1 kPa scatter (apart), φ by
+    0.3° over 1° (not), the collapse heaps alike; in the grown box, two packings each, c alike (not apart); the cone
+    over the check's packings; the parameter intervals are disjoint for the bond only; the soils' own targets decide
+    `targets_apart`."""
     from analysis.soil import soils_apart
     rng = np.random.default_rng(5)
-    means = {"clay": {"c_kpa": 25, "phi_deg": 28, "collapse_deg": 34}, "loam": {"c_kpa": 13, "phi_deg": 28.3,
-                                                                                 "collapse_deg": 34}}
-    for soil, m in means.items():
-        pd.DataFrame([{r: v + rng.normal(0, 1) for r, v in m.items()} for _ in range(3)]) \
-            .to_csv(tmp_path / f"{soil}-check.csv", index=False)
-        bond = 90e3 if soil == "clay" else 150e3
-        (tmp_path / f"{soil}-posterior.json").write_text(json.dumps({
-            "mean": {"normal_cohesion": bond, "friction_deg": 12.0},
-            "interval": {"normal_cohesion": [bond - 10e3, bond + 10e3], "friction_deg": [10.0, 14.0]}}))
+    cfg = bench.load_config()
+    for soil, c, phi, bond, cone in (("clay", 25, 28, 90e3, 450e3), ("loam", 13, 28.3, 150e3, 460e3)):
+        post = {**CHECKED_SET, "normal_cohesion": bond}
+        interval = {n: [v * 0.9, v * 1.1] for n, v in post.items()} | {"normal_cohesion": [bond - 10e3, bond + 10e3]}
+        (tmp_path / f"{soil}-posterior.json").write_text(json.dumps({"mean": post, "interval": interval}))
+        checks = checked_rows(tmp_path, soil, "k", cfg["check_box_mm"], c + rng.normal(0, 1, 5),
+                              list(phi + rng.normal(0, 1, 5)), normal_cohesion=bond)
+        checks.to_csv(tmp_path / f"{soil}-check-packings.csv", index=False)
+        checks[:3].assign(cone_kpa=cone / 1e3 + rng.normal(0, 5, 3)).to_csv(tmp_path / f"{soil}-check.csv", index=False)
+        grown = checked_rows(tmp_path, soil, "g", cfg["check_size_check_mm"], [20.0, 22.0], normal_cohesion=bond)
+        grown.assign(box="grown").to_csv(tmp_path / f"{soil}-box-size.csv", index=False)
     paths = soils_apart.run(tmp_path)
-    responses = pd.read_csv(paths[0], comment="#").set_index("response")
-    assert responses.loc["c_kpa", "apart"] and not responses.loc["phi_deg", "apart"]
-    assert tuple(responses.loc["c_kpa", ["soil_1", "soil_2"]]) == ("clay", "loam")
-    assert responses.loc["c_kpa", "difference"] < -9                                  # loam's c is the lower
-    targets = {s: bench.load_targets(s) for s in means}
+    table = pd.read_csv(paths[0], comment="#")
+    checked, grown = (table[table.read_in == "x".join(f"{v:g}" for v in cfg[k])].set_index("response")
+                      for k in ("check_box_mm", "check_size_check_mm"))
+    assert checked.loc["c_kpa", "apart"] and not checked.loc["phi_deg", "apart"]
+    assert checked.loc["c_kpa", "packings"] == "5+5" and not checked.loc["collapse_deg", "apart"]
+    assert tuple(checked.loc["c_kpa", ["soil_1", "soil_2"]]) == ("clay", "loam")
+    assert checked.loc["c_kpa", "difference"] < -9                                    # loam's c is the lower
+    assert set(grown.index) == {"c_kpa", "phi_deg"} and not grown.loc["c_kpa", "apart"]   # collapse: the checks' only
+    cone = table[table.read_in == "cone"].set_index("response")
+    assert list(cone.index) == ["cone_kpa"] and cone.loc["cone_kpa", "packings"] == "3+3"
+    targets = {s: bench.load_targets(s) for s in ("clay", "loam")}
     c_disjoint = targets["clay"].loc["c_kpa", "lo"] > targets["loam"].loc["c_kpa", "hi"]
-    assert responses.loc["c_kpa", "targets_apart"] == c_disjoint
-    assert "cone_kpa" not in responses.index                   # neither check has a cone
+    assert checked.loc["c_kpa", "targets_apart"] == c_disjoint
     params = pd.read_csv(paths[1], comment="#").set_index("parameter")
     assert params.loc["normal_cohesion", "apart"] and not params.loc["friction_deg", "apart"]
     (tmp_path / "loam-check.csv").unlink()
@@ -1121,22 +1152,10 @@ def test_the_box_shift_is_the_size_check_of_each_box_over_every_packing_it_ran(t
     from analysis.soil.soils_apart import box_shift_run
     assert box_shift_run(tmp_path) is None
     (tmp_path / bench.FILTER_BOX_CHECKS).mkdir()
-    post = {"normal_cohesion": 1.2e5, "friction_deg": 19.0, "pressed_adhesion": 0.06, "rolling_friction": 0.04,
-            "damping": 0.14}
-    heap = {"profile_mm": [[x, max(0.0, min(100.0, 200.0 - x))] for x in range(0, 400, 2)]}
+    post = CHECKED_SET
 
     def rows(soil, name, box_mm, cs, **params):
-        out = []
-        for seed, c in enumerate(cs, start=1):
-            folder = tmp_path / soil / f"{name}{seed}"
-            folder.mkdir(parents=True)
-            box = shear_box(c, 30.0 + seed % 2, size=box_mm[0] / 1000)
-            for t in box["tests"]:
-                t["size_m"] = [v / 1000 for v in box_mm]
-            (folder / "box.json").write_text(json.dumps(box))
-            (folder / "column.json").write_text(json.dumps(heap))
-            out.append({"id": f"{name}{seed}", "soil": soil, "seed": seed, **{**post, **params}, "c_kpa": 0.0})
-        return pd.DataFrame(out)
+        return checked_rows(tmp_path, soil, name, box_mm, cs, **params)
     for soil in ("sand", "clay"):
         (tmp_path / f"{soil}-posterior.json").write_text(json.dumps({"mean": post}))
     rows("sand", "f", [150, 150, 100], [12.0, 14.0, 16.0, 13.0]).to_csv(

@@ -1,8 +1,9 @@
 """Which bench test tells which soil apart: for each pair of calibrated soils, each bench response of their
-posteriors' checks (the posterior mean on the check packings, `<soil>-check.csv`) side by side with the interval of
-the difference, and each calibrated parameter's posterior interval (`<soil>-posterior.json`). A response tells two
-soils apart when the interval of the difference of their packings' means leaves zero out; whether the targets ask it
-to is whether the two soils' target ranges are disjoint. Beside them, how the filter's own packing reads against the
+posterior means side by side with the interval of the difference (the shear box and the collapse test over every
+packing each box ran, `posterior_packings`; the cone over the check's packings, `<soil>-check.csv`), and each
+calibrated parameter's posterior interval (`<soil>-posterior.json`). A response tells two soils apart when the
+interval of the difference of their packings' means leaves zero out; whether the targets ask it to is whether the two
+soils' target ranges are disjoint. Beside them, how the filter's own packing reads against the
 other check packings over every posterior checked so far (`filter-packing.csv`), and how far the check packings'
 scatter lets a check on each packing tell a set inside a target at all (`check-odds.csv`)."""
 import itertools
@@ -22,21 +23,23 @@ from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, cone_path, co
 from analysis.soil.shear import READING
 
 
-def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict]) -> pd.DataFrame:
-    """Per response and pair of soils (in `checks`' order): both packings' means, the difference (soil_2 − soil_1) with its 95 %
-    interval, whether it leaves zero out (`apart`) and whether the two target ranges are disjoint (`targets_apart`).
-    `targets[soil][response]` is the (lo, hi) range; a response one of the two soils' checks or targets lacks is left
-    out of their pair."""
+def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict],
+                    responses=(*RESPONSES, "cone_kpa")) -> pd.DataFrame:
+    """Per response of `responses` and pair of soils (in `checks`' order): both packings' means, the difference
+    (soil_2 − soil_1) with its 95 % interval, whether it leaves zero out (`apart`) and whether the two target ranges
+    are disjoint (`targets_apart`). `targets[soil][response]` is the (lo, hi) range; a response one of the two soils'
+    checks or targets lacks, or that either read on fewer than two packings, is left out of their pair."""
     rows = []
-    for r in [*RESPONSES, "cone_kpa"]:
+    for r in responses:
         for s1, s2 in itertools.combinations(checks, 2):
-            if any(r not in checks[s] or r not in targets[s] for s in (s1, s2)):
+            if any(r not in checks[s] or r not in targets[s] or checks[s][r].notna().sum() < 2 for s in (s1, s2)):
                 continue
-            d, lo, hi = difference_interval(checks[s1][r], checks[s2][r])
+            d, lo, hi = difference_interval(checks[s1][r].dropna(), checks[s2][r].dropna())
             (a_lo, a_hi), (b_lo, b_hi) = targets[s1][r], targets[s2][r]
             rows.append({"response": r, "soil_1": s1, "soil_2": s2, "mean_1": checks[s1][r].mean(),
                          "mean_2": checks[s2][r].mean(), "difference": d, "lo": lo, "hi": hi,
-                         "packings": f"{len(checks[s1])}+{len(checks[s2])}", "apart": bool(lo > 0 or hi < 0),
+                         "packings": f"{checks[s1][r].notna().sum()}+{checks[s2][r].notna().sum()}",
+                         "apart": bool(lo > 0 or hi < 0),
                          "targets_apart": bool(a_hi < b_lo or b_hi < a_lo)})
     return pd.DataFrame(rows)
 
@@ -56,18 +59,29 @@ def parameters_apart(posteriors: dict[str, dict]) -> pd.DataFrame:
 
 def run(out_dir: Path = BENCH_DIR) -> list[Path]:
     """soils-apart.csv (the responses) and soils-apart-parameters.csv from every soil with a posterior and its check
-    in out_dir; nothing when fewer than two soils have both."""
+    in out_dir; nothing when fewer than two soils have both. The responses are read where each is judged: the shear
+    box's and the collapse test's over every packing the checks' box ran, the shear box's again over every packing
+    of the checks' box grown by half, and the cone over the check's packings (`read_in`)."""
     out_dir = Path(out_dir)
     soils = [s for s in SOILS if (out_dir / f"{s}-check.csv").exists() and (out_dir / f"{s}-posterior.json").exists()]
     if len(soils) < 2:
         return []
-    checks = {s: pd.read_csv(out_dir / f"{s}-check.csv", comment="#") for s in soils}
+    cfg = load_config()
     posteriors = {s: json.loads((out_dir / f"{s}-posterior.json").read_text()) for s in soils}
     targets = {s: target_ranges(s, load_config(soil=s)) for s in soils}
+    tables = []
+    for key, responses in (("check_box_mm", RESPONSES), ("check_size_check_mm", SHEAR_RESPONSES)):
+        box = cfg[key]
+        checks = {s: posterior_packings(s, box, out_dir, out_dir) for s in soils}
+        tables.append(responses_apart(checks, targets, responses).assign(read_in="x".join(f"{v:g}" for v in box)))
+    cones = {s: pd.read_csv(out_dir / f"{s}-check.csv", comment="#") for s in soils}
+    tables.append(responses_apart(cones, targets, ("cone_kpa",)).assign(read_in="cone"))
     paths = [out_dir / "soils-apart.csv", out_dir / "soils-apart-parameters.csv"]
-    atomic_csv(responses_apart(checks, targets).round(3), paths[0],
-               "./holes calibration-report; per bench response and pair of soils, the difference of the posterior "
-               "means' check packings, soil_2 − soil_1 (Welch 95 % interval), and whether the targets' ranges are disjoint")
+    atomic_csv(pd.concat(tables).round(3), paths[0],
+               "./holes calibration-report; per bench response, where it is read (read_in: the shear box, mm, over "
+               "every packing it ran at the posterior mean, the collapse test with the checks' box; the cone over the "
+               "check's packings) and pair of soils, the difference of the packings' means, soil_2 − soil_1 (Welch 95 % "
+               "interval), and whether the targets' ranges are disjoint")
     atomic_csv(parameters_apart(posteriors).round(4), paths[1],
                "./holes calibration-report; per calibrated parameter and pair of soils, the posteriors' 95 % "
                "intervals and whether they are disjoint")
