@@ -305,6 +305,7 @@ def cmd_calibration_report(args) -> int:
     for path in [*bench_calibration.report(), *soils_apart.run(), soils_apart.filter_packing_run(),
                  soils_apart.check_odds_run(), soils_apart.shear_scatter_run(), soils_apart.packing_effects_run(),
                  soils_apart.cone_per_c_run(), soils_apart.box_shift_run(), soils_apart.box_shift_pooled_run(),
+                 soils_apart.box_peaks_run(),
                  soils_apart.reading_reweighted_run()]:
         if path:
             print(f"wrote {path}")

@@ -1199,6 +1199,38 @@ def test_the_pooled_box_shift_weighs_each_soil_by_its_scatter_and_pools_one_box_
     assert table.loc["phi_deg", "q_p"] < table.loc["c_kpa", "q_p"]
 
 
+def test_the_box_peaks_read_the_size_check_on_each_stress_peak_and_pool_the_soils_and_stresses(tmp_path):
+    """`box_peaks_run`: sand's posterior read 4 kPa lower in c in the grown box, at the same φ, gives each stress's
+    mean peak in both boxes and the grown box's shift in % of the checks' box's peak, resolved; the pooled row holds
+    every stress; a soil checked in one box gives no row."""
+    from analysis.soil.soils_apart import box_peaks_run
+    assert box_peaks_run(tmp_path) is None
+    cfg = bench.load_config()
+    for soil in ("sand", "clay"):
+        (tmp_path / f"{soil}-posterior.json").write_text(json.dumps({"mean": CHECKED_SET}))
+    c, phi = [10.0, 11.0, 9.0, 10.5], [30.0, 30.5, 29.5, 30.0]
+    checked_rows(tmp_path, "sand", "k", cfg["check_box_mm"], c, phi).to_csv(tmp_path / "sand-check-packings.csv",
+                                                                            index=False)
+    checked_rows(tmp_path, "sand", "g", cfg["check_size_check_mm"], [v - 4 for v in c], phi).assign(box="grown") \
+        .to_csv(tmp_path / "sand-box-size.csv", index=False)
+    checked_rows(tmp_path, "clay", "k", cfg["check_box_mm"], c, phi).to_csv(tmp_path / "clay-check-packings.csv",
+                                                                            index=False)
+    table = pd.read_csv(box_peaks_run(tmp_path), comment="#")
+    assert set(table.soil) == {"sand", "pooled"}
+    sand = table[table.soil == "sand"].set_index("stress_kpa")
+    assert list(sand.index) == [50.0, 100.0, 200.0] and sand["resolved"].all()
+    def mean_peaks(box_mm, cs):
+        return np.mean([[t["tau_peak_kpa"] for t in shear_box(v, f, size=box_mm[0] / 1000)["tests"]]
+                        for v, f in zip(cs, phi)], axis=0)
+    assert sand["configured_kpa"].to_numpy() == pytest.approx(mean_peaks(cfg["check_box_mm"], c), abs=1e-3)
+    assert sand["grown_kpa"].to_numpy() == pytest.approx(mean_peaks(cfg["check_size_check_mm"], [v - 4 for v in c]),
+                                                         abs=1e-3)
+    assert sand["shift_pct"].to_numpy() == pytest.approx(
+        100 * (sand["grown_kpa"] / sand["configured_kpa"] - 1).to_numpy(), abs=0.01)
+    pooled = table[table.soil == "pooled"].iloc[0]
+    assert pooled.pooled_rows == 3 and sand["shift_pct"].min() < pooled.shift_pct < sand["shift_pct"].max()
+
+
 def test_the_cone_per_c_table_reads_each_checked_sets_box_and_its_kept_cones_at_the_runs_grains(tmp_path):
     """`cone_per_c_run`: a set checked on three packings with its cone kept at the runs' grains on two gives one row,
     the cone per kPa of c and the c that ratio asks for Table 2's floor; a set with no cone kept gives none."""

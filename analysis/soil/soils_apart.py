@@ -305,6 +305,72 @@ def box_shift_pooled_run(out_dir: Path = BENCH_DIR) -> Path | None:
     return path
 
 
+def posterior_peaks(soil: str, box_mm, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
+    """The shear box's peak shear stress (kPa) of the soil's posterior mean in box `box_mm`, one row per packing
+    (`posterior_packings`), a column per normal stress (kPa)."""
+    rows = []
+    for i in posterior_packings(soil, box_mm, out_dir, out_dir).get("id", []):
+        data = scene_result(Path(out_dir) / soil / str(i), "shear")
+        if data:
+            rows.append({float(t["stress_kpa"]): float(t["tau_peak_kpa"]) for t in data["tests"]})
+    return pd.DataFrame(rows)
+
+
+def peak_shift(configured: pd.DataFrame, grown: pd.DataFrame) -> pd.DataFrame:
+    """The size check of the shear box's peaks: per normal stress both boxes ran (`posterior_peaks`' columns),
+    `size_shift`'s row with the shift, its interval and both SDs as shares of the configured box's mean peak, in %
+    (the stress in `stress_kpa`, every row's response `tau_peak_pct`).
+
+    >>> a = pd.DataFrame({50.0: [50.0, 52.0, 48.0], 100.0: [100.0, 104.0, 96.0]})
+    >>> r = peak_shift(a, a * 0.95)
+    >>> r[["stress_kpa", "shift"]].round(2).to_dict(orient="list")
+    {'stress_kpa': [50.0, 100.0], 'shift': [-5.0, -5.0]}
+    """
+    stresses = [c for c in configured if c in grown]
+    table = size_shift(configured, grown, stresses)
+    scale = 100 / table["configured_mean"]
+    for col in ("configured_sd", "grown_sd", "shift", "shift_lo", "shift_hi"):
+        table[col] = table[col] * scale
+    return table.rename(columns={"response": "stress_kpa"}).assign(response="tau_peak_pct")
+
+
+def box_peaks_run(out_dir: Path = BENCH_DIR) -> Path | None:
+    """box-peaks.csv: where the shear box's size check moves c and φ from, its peaks: per soil, box pair (as in
+    box-shift.csv) and normal stress, the shift of the posterior mean's peak shear stress in % of the configured box's
+    (`peak_shift`), and per box pair every soil's and stress's shift pooled (`pooled_shift`: one shift for all, and
+    Cochran's Q for whether they differ); None when no soil has a pair."""
+    out_dir = Path(out_dir)
+    cfg = load_config()
+    boxes = [cfg[k] for k in ("size_mm", "check_box_mm", "check_size_check_mm")]
+    tables = []
+    for soil in SOILS:
+        peaks = [posterior_peaks(soil, box, out_dir) for box in boxes]
+        for (small, a), (big, b) in itertools.pairwise(zip(boxes, peaks)):
+            if len(a) > 1 and len(b) > 1:
+                tables.append(peak_shift(a, b).assign(soil=soil, configured_mm="x".join(f"{v:g}" for v in small),
+                                                      grown_mm="x".join(f"{v:g}" for v in big)))
+    if not tables:
+        return None
+    table = pd.concat(tables)
+    pooled = [pooled_shift(t).rename(columns={"soils": "pooled_rows"}).assign(soil="pooled", configured_mm=small,
+                                                                             grown_mm=big)
+              for (small, big), t in table.groupby(["configured_mm", "grown_mm"], sort=False)]
+    path = out_dir / "box-peaks.csv"
+    table = pd.concat([table, *pooled]).drop(columns="response").rename(columns={
+        "configured_mean": "configured_kpa", "grown_mean": "grown_kpa", "configured_sd": "configured_sd_pct",
+        "grown_sd": "grown_sd_pct", "shift": "shift_pct", "shift_lo": "shift_lo_pct", "shift_hi": "shift_hi_pct"})
+    first = ["soil", "configured_mm", "grown_mm", "stress_kpa"]
+    table = table[first + [c for c in table if c not in first]].astype(
+        {c: "Int64" for c in ("configured_n", "grown_n", "pooled_rows")})
+    atomic_csv(table.round(3), path,
+               "./holes calibration-report; the shear box's size checks read on its peaks: per soil, box pair and "
+               "normal stress, the posterior mean's peak shear stress (kPa) over every packing each box ran, its SDs and the "
+               "grown box's shift in % of the configured box's mean peak, with its Welch 95 % interval; passes: the "
+               "size rule on the peak; per box pair (soil "
+               "'pooled') every soil's and stress's shift pooled by inverse Welch variance, with Cochran's Q")
+    return path
+
+
 def reading_reweighted(table: pd.DataFrame, post: dict, measured_table: pd.DataFrame) -> pd.DataFrame:
     """A filter's last iteration weighed again under another reading of its evaluations: each sample's last weight
     (`table`'s `weight_last`, as the filter weighed its responses) times the ratio of its likelihood under
