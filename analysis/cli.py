@@ -140,10 +140,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--runs-grains", action="store_true",
                    help="with --cones: the cone at the runs' grains, as the checks read it, instead of the filter's "
                         "(results/calibration/bench/<soil>-cones-runs-grains.csv)")
-    p.add_argument("--size-check", nargs="?", const="filter", default=None, metavar="filter|checks",
+    p.add_argument("--size-check", nargs="?", const="filter", default=None, metavar="filter|checks|height",
                    help="with --bench: no calibration; the posterior mean's bench responses on the check packings in "
-                        "the filter's box (or the checks' shear box) and one grown by half "
-                        "(results/calibration/bench/<soil>-size.csv, <soil>-box-size.csv)")
+                        "the filter's box (or the checks' shear box) and one grown by half (height: the checks' box "
+                        "grown in height alone) (results/calibration/bench/<soil>-size.csv, <soil>-box-size.csv, "
+                        "<soil>-box-height.csv)")
     p.add_argument("--remeasure", action="store_true",
                    help="with --bench: nothing runs; every kept check of the soil measured again from its evaluations' "
                         "stored results (c and φ, the collapse slope) and judged again, the posterior's recorded in "

@@ -463,6 +463,33 @@ def test_the_size_check_runs_the_posterior_in_both_boxes_and_judges_each_respons
         bench.load_config(tmp_path / "b.toml")
 
 
+def test_the_height_check_grows_the_checks_box_in_height_alone_into_its_own_table(tmp_path, monkeypatch):
+    """`--size-check height`: the posterior on the check packings in the checks' box and in it grown in height
+    alone (<soil>-box-height.csv, apart from the size check's tables); a height check that is not the checks' box
+    made taller is refused, naming the field."""
+    cfg = bench.load_config(soil="clay")
+    post = {"normal_cohesion": 3e5, "friction_deg": 12.0, "new_contact_cohesion": 0.001, "rolling_friction": 0.1}
+    (tmp_path / "clay-posterior.json").write_text(json.dumps({"mean": post}))
+    seen = []
+
+    def made_up(soil, seed, params, box, out_dir):
+        seen.append(tuple(box["size_mm"]))
+        return {"id": f"s{seed}-{box['size_mm'][2]}", "seed": seed, "c_kpa": 20.0 + seed, "phi_deg": 27.0 + seed,
+                "collapse_deg": 35.0 + seed}
+    monkeypatch.setattr(bench, "evaluate", made_up)
+    bench.size_check("clay", cfg, tmp_path, box="height")
+    assert set(seen) == {tuple(cfg["check_box_mm"]), tuple(cfg["check_height_check_mm"])}
+    assert cfg["check_height_check_mm"][:2] == cfg["check_box_mm"][:2]
+    assert cfg["check_height_check_mm"][2] > cfg["check_box_mm"][2]
+    saved = pd.read_csv(tmp_path / "clay-box-height.csv", comment="#")
+    assert set(saved.box) == {"configured", "grown"} and not (tmp_path / "clay-box-size.csv").exists()
+    text = bench.CONFIG.read_text().replace("check_height_check_mm = [225, 225, 225]",
+                                            "check_height_check_mm = [338, 338, 225]")
+    (tmp_path / "b.toml").write_text(text)
+    with pytest.raises(ConfigError, match="check_height_check_mm"):
+        bench.load_config(tmp_path / "b.toml")
+
+
 def test_the_size_check_asks_for_the_bench(capsys):
     from analysis.cli import main
     assert main(["calibrate", "--soil", "clay", "--size-check"]) == 2
@@ -1201,8 +1228,8 @@ def test_the_pooled_box_shift_weighs_each_soil_by_its_scatter_and_pools_one_box_
 
 def test_the_box_peaks_read_the_size_check_on_each_stress_peak_and_pool_the_soils_and_stresses(tmp_path):
     """`box_peaks_run`: sand's posterior read 4 kPa lower in c in the grown box, at the same φ, gives each stress's
-    mean peak in both boxes and the grown box's shift in % of the checks' box's peak, resolved; the pooled row holds
-    every stress; a soil checked in one box gives no row."""
+    mean peak in both boxes and the grown box's shift in % of the checks' box's peak, resolved; sand's pooled row
+    and the soils' hold every stress; a soil checked in one box gives no row."""
     from analysis.soil.soils_apart import box_peaks_run
     assert box_peaks_run(tmp_path) is None
     cfg = bench.load_config()
@@ -1217,7 +1244,7 @@ def test_the_box_peaks_read_the_size_check_on_each_stress_peak_and_pool_the_soil
                                                                             index=False)
     table = pd.read_csv(box_peaks_run(tmp_path), comment="#")
     assert set(table.soil) == {"sand", "pooled"}
-    sand = table[table.soil == "sand"].set_index("stress_kpa")
+    sand = table[(table.soil == "sand") & table.stress_kpa.notna()].set_index("stress_kpa")
     assert list(sand.index) == [50.0, 100.0, 200.0] and sand["resolved"].all()
     def mean_peaks(box_mm, cs):
         return np.mean([[t["tau_peak_kpa"] for t in shear_box(v, f, size=box_mm[0] / 1000)["tests"]]
@@ -1227,8 +1254,9 @@ def test_the_box_peaks_read_the_size_check_on_each_stress_peak_and_pool_the_soil
                                                          abs=1e-3)
     assert sand["shift_pct"].to_numpy() == pytest.approx(
         100 * (sand["grown_kpa"] / sand["configured_kpa"] - 1).to_numpy(), abs=0.01)
-    pooled = table[table.soil == "pooled"].iloc[0]
-    assert pooled.pooled_rows == 3 and sand["shift_pct"].min() < pooled.shift_pct < sand["shift_pct"].max()
+    for pooled in (table[(table.soil == "sand") & table.stress_kpa.isna()], table[table.soil == "pooled"]):
+        assert len(pooled) == 1 and pooled.pooled_rows.iloc[0] == 3                 # sand's stresses; then every soil's
+        assert sand["shift_pct"].min() < pooled.shift_pct.iloc[0] < sand["shift_pct"].max()
 
 
 def test_the_cone_per_c_table_reads_each_checked_sets_box_and_its_kept_cones_at_the_runs_grains(tmp_path):

@@ -100,6 +100,11 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
                                     or any(float(g) <= float(b) for g, b in zip(grown_check, box))):
         raise ConfigError(f"{path}: bench.check_size_check_mm = {grown_check}: allowed three lengths, each above "
                           f"check_box_mm's {box}")
+    taller = bench.get("check_height_check_mm")
+    if taller is not None and (box is None or len(taller) != 3 or [float(v) for v in taller[:2]] != [float(v) for v in box[:2]]
+                               or float(taller[2]) <= float(box[2])):
+        raise ConfigError(f"{path}: bench.check_height_check_mm = {taller}: allowed check_box_mm's {box} with a "
+                          "greater height")
     if soil is not None:
         bounds.update(per_soil.get(soil, {}))
     if len(bounds) < 3:
@@ -697,8 +702,9 @@ def deepest_set(soil: str, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
     return {n: float(table.loc[soil, n]) for n in cfg["bounds"]}
 
 
-SIZE_CHECKS = ("filter", "checks")       # the box a size check grows: the filter's shear box, or the checks'
-SIZE_TABLES = ("-size", "-box-size")  # their tables, <soil><part>.csv and .json (no "-check": the report reads
+SIZE_CHECKS = ("filter", "checks", "height")   # the box a size check grows: the filter's shear box, the checks', or
+                                               # the checks' in height alone
+SIZE_TABLES = ("-size", "-box-size", "-box-height")  # their tables, <soil><part>.csv and .json (no "-check": the report reads
 # every <soil>-check*.csv as checks in one box)
 
 
@@ -706,32 +712,36 @@ def size_check_boxes(cfg: dict, box: str = "filter") -> tuple[dict, dict, str]:
     """The bench settings of a size check's configured and grown box, and its table's name. "filter": the filter's
     shear box and collapse column ([bench] size_mm, collapse_size_mm) and both grown by half (size_check_mm);
     "checks": the checks' shear box (check_box_mm) and one grown by half (check_size_check_mm), the collapse column
-    kept (sized on its own), so the grown box's column is its twins'.
+    kept (sized on its own), so the grown box's column is its twins'; "height": the checks' shear box and one grown
+    in height alone (check_height_check_mm), the column kept likewise.
 
     >>> cfg = {"size_mm": [150, 150, 100], "collapse_size_mm": [225, 225, 150], "check_box_mm": [225, 225, 150],
     ...        "size_check_mm": [225, 225, 150], "check_size_check_mm": [338, 338, 225]}
     >>> base, grown, name = size_check_boxes(cfg, "checks")
     >>> base["size_mm"], grown["size_mm"], grown["collapse_size_mm"], name
     ([225, 225, 150], [338, 338, 225], [225, 225, 150], 'box-size')
+    >>> size_check_boxes({**cfg, "check_height_check_mm": [225, 225, 225]}, "height")[1]["size_mm"]
+    [225, 225, 225]
     """
     if box not in SIZE_CHECKS:
         raise ConfigError(f"--size-check {box}: allowed {' or '.join(SIZE_CHECKS)}")
-    key = "size_check_mm" if box == "filter" else "check_size_check_mm"
-    if key not in cfg or (box == "checks" and "check_box_mm" not in cfg):
+    key = {"filter": "size_check_mm", "checks": "check_size_check_mm", "height": "check_height_check_mm"}[box]
+    if key not in cfg or (box != "filter" and "check_box_mm" not in cfg):
         raise ConfigError(f"{CONFIG}: [bench] lacks {key} (the grown box, mm)")
     if box == "filter":
         return cfg, grown_bench(cfg), SIZE_TABLES[0][1:]
     checks = checks_bench(cfg)
     grown = {**checks, "size_mm": list(cfg[key]), "twins": [checks, *checks.get("twins", [])]}
-    return checks, grown, SIZE_TABLES[1][1:]
+    return checks, grown, SIZE_TABLES[SIZE_CHECKS.index(box)][1:]
 
 
 def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR, box: str = "filter",
                seeds: list[int] | None = None) -> pd.DataFrame:
     """The bench's size check at the soil's posterior mean (<out_dir>/<soil>-posterior.json): its responses on the
     check packings (`seeds`, else [bench] check_seeds) in the configured box and in one grown by half each way
-    (`size_check_boxes`: the filter's box or the checks'). Writes <soil>-size.csv (the checks' box:
-    <soil>-box-size.csv; every evaluation) and returns the verdict per response (`size_verdict`)."""
+    (`size_check_boxes`: the filter's box or the checks', or the checks' in height alone). Writes <soil>-size.csv
+    (the checks' box: <soil>-box-size.csv; in height: <soil>-box-height.csv; every evaluation) and returns the
+    verdict per response (`size_verdict`)."""
     cfg = cfg or load_config(soil=soil)
     configured, grown, name = size_check_boxes(cfg, box)
     params = posterior_mean(soil, out_dir)
@@ -745,7 +755,8 @@ def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR, bo
                                                                        if seeds != [int(s) for s in cfg["check_seeds"]] else "")
     atomic_csv(table, Path(out_dir) / f"{soil}-{name}.csv",
                f"./holes calibrate --soil {soil} --bench {flag}; {soil}'s posterior mean on packings "
-               f"{','.join(map(str, seeds))} in the {'filter' if box == 'filter' else 'checks'}' box and one grown by half")
+               f"{','.join(map(str, seeds))} in the {'filter' if box == 'filter' else 'checks'}' box and one grown by half"
+               + (" in height alone" if box == "height" else ""))
     pooled = {label: posterior_packings(soil, settings["size_mm"], out_dir, out_dir) for label, settings in boxes.items()}
     verdict = size_verdict(table, pooled)
     atomic_write(Path(out_dir) / f"{soil}-{name}.json", json.dumps(verdict.to_dict(orient="records"), indent=1))

@@ -259,21 +259,33 @@ def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
     return path
 
 
+def box_pairs(cfg: dict) -> list[tuple[list, list]]:
+    """The shear box's size checks as (configured, grown) boxes in mm: the filter's box and the checks', the checks'
+    and it grown by half, and, where [bench] sets one, the checks' and it grown in height alone.
+
+    >>> box_pairs({"size_mm": [1], "check_box_mm": [2], "check_size_check_mm": [3], "check_height_check_mm": [4]})
+    [([1], [2]), ([2], [3]), ([2], [4])]
+    """
+    pairs = list(itertools.pairwise([cfg[k] for k in ("size_mm", "check_box_mm", "check_size_check_mm")]))
+    return pairs + ([(cfg["check_box_mm"], cfg["check_height_check_mm"])] if "check_height_check_mm" in cfg else [])
+
+
+def mm(box) -> str:
+    """A box's lengths as the tables name it: "225x225x150"."""
+    return "x".join(f"{float(v):g}" for v in box)
+
+
 def box_shift_run(out_dir: Path = BENCH_DIR) -> Path | None:
     """box-shift.csv: the shear box's size checks over every packing each box ran (`size_shift` of
-    `posterior_packings`), per soil's posterior mean: the filter's box against the checks' box, and the checks' box
-    against it grown by half; None when no soil has a pair."""
+    `posterior_packings`), per soil's posterior mean and box pair (`box_pairs`); None when no soil has a pair."""
     out_dir = Path(out_dir)
-    cfg = load_config()
-    boxes = [cfg[k] for k in ("size_mm", "check_box_mm", "check_size_check_mm")]
     tables = []
     for soil in SOILS:
-        read = [posterior_packings(soil, box, out_dir, out_dir) for box in boxes]
-        for (small, a), (big, b) in itertools.pairwise(zip(boxes, read)):
+        for small, big in box_pairs(load_config()):
+            a, b = (posterior_packings(soil, box, out_dir, out_dir) for box in (small, big))
             shift = size_shift(a, b, SHEAR_RESPONSES) if len(a) and len(b) else pd.DataFrame()
             if len(shift):
-                tables.append(shift.assign(soil=soil, configured_mm="x".join(f"{v:g}" for v in small),
-                                           grown_mm="x".join(f"{v:g}" for v in big)))
+                tables.append(shift.assign(soil=soil, configured_mm=mm(small), grown_mm=mm(big)))
     if not tables:
         return None
     path = out_dir / "box-shift.csv"
@@ -337,24 +349,24 @@ def peak_shift(configured: pd.DataFrame, grown: pd.DataFrame) -> pd.DataFrame:
 def box_peaks_run(out_dir: Path = BENCH_DIR) -> Path | None:
     """box-peaks.csv: where the shear box's size check moves c and φ from, its peaks: per soil, box pair (as in
     box-shift.csv) and normal stress, the shift of the posterior mean's peak shear stress in % of the configured box's
-    (`peak_shift`), and per box pair every soil's and stress's shift pooled (`pooled_shift`: one shift for all, and
-    Cochran's Q for whether they differ); None when no soil has a pair."""
+    (`peak_shift`), pooled over its stresses (`pooled_shift`, the stress left blank), and per box pair every soil's
+    and stress's shift pooled (soil "pooled"), each with Cochran's Q for whether the shifts it pools differ; None when
+    no soil has a pair."""
     out_dir = Path(out_dir)
-    cfg = load_config()
-    boxes = [cfg[k] for k in ("size_mm", "check_box_mm", "check_size_check_mm")]
     tables = []
     for soil in SOILS:
-        peaks = [posterior_peaks(soil, box, out_dir) for box in boxes]
-        for (small, a), (big, b) in itertools.pairwise(zip(boxes, peaks)):
+        for small, big in box_pairs(load_config()):
+            a, b = (posterior_peaks(soil, box, out_dir) for box in (small, big))
             if len(a) > 1 and len(b) > 1:
-                tables.append(peak_shift(a, b).assign(soil=soil, configured_mm="x".join(f"{v:g}" for v in small),
-                                                      grown_mm="x".join(f"{v:g}" for v in big)))
+                tables.append(peak_shift(a, b).assign(soil=soil, configured_mm=mm(small), grown_mm=mm(big)))
     if not tables:
         return None
     table = pd.concat(tables)
-    pooled = [pooled_shift(t).rename(columns={"soils": "pooled_rows"}).assign(soil="pooled", configured_mm=small,
-                                                                             grown_mm=big)
-              for (small, big), t in table.groupby(["configured_mm", "grown_mm"], sort=False)]
+    pooled = []
+    for keys in (["soil", "configured_mm", "grown_mm"], ["configured_mm", "grown_mm"]):   # each soil's, then all
+        for (*soil, small, big), t in table.groupby(keys, sort=False):
+            pooled.append(pooled_shift(t).rename(columns={"soils": "pooled_rows"}).assign(
+                soil=soil[0] if soil else "pooled", configured_mm=small, grown_mm=big))
     path = out_dir / "box-peaks.csv"
     table = pd.concat([table, *pooled]).drop(columns="response").rename(columns={
         "configured_mean": "configured_kpa", "grown_mean": "grown_kpa", "configured_sd": "configured_sd_pct",
