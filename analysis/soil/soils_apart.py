@@ -261,13 +261,17 @@ def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
 
 def box_pairs(cfg: dict) -> list[tuple[list, list]]:
     """The shear box's size checks as (configured, grown) boxes in mm: the filter's box and the checks', the checks'
-    and it grown by half, and, where [bench] sets one, the checks' and it grown in height alone.
+    and it grown by half, and, where [bench] sets one, the checks' and it grown in height alone, and that tall box
+    and the box grown by half (in width alone where their heights agree).
 
     >>> box_pairs({"size_mm": [1], "check_box_mm": [2], "check_size_check_mm": [3], "check_height_check_mm": [4]})
-    [([1], [2]), ([2], [3]), ([2], [4])]
+    [([1], [2]), ([2], [3]), ([2], [4]), ([4], [3])]
     """
     pairs = list(itertools.pairwise([cfg[k] for k in ("size_mm", "check_box_mm", "check_size_check_mm")]))
-    return pairs + ([(cfg["check_box_mm"], cfg["check_height_check_mm"])] if "check_height_check_mm" in cfg else [])
+    if "check_height_check_mm" not in cfg:
+        return pairs
+    tall = cfg["check_height_check_mm"]
+    return pairs + [(cfg["check_box_mm"], tall), (tall, cfg["check_size_check_mm"])]
 
 
 def mm(box) -> str:
