@@ -1228,22 +1228,23 @@ def test_the_pooled_box_shift_weighs_each_soil_by_its_scatter_and_pools_one_box_
 
 def test_the_box_peaks_read_the_size_check_on_each_stress_peak_and_pool_the_soils_and_stresses(tmp_path):
     """`box_peaks_run`: sand's posterior read 4 kPa lower in c in the grown box, at the same φ, gives each stress's
-    mean peak in both boxes and the grown box's shift in % of the checks' box's peak, resolved; sand's pooled row
-    and the soils' hold every stress; a soil checked in one box gives no row."""
+    mean peak in both boxes and the grown box's shift in % of the checks' box's peak, resolved; sand's row pooled
+    over its stresses lies among them, and with clay's, read alike in both boxes, the soils' pooled row lies between,
+    Cochran's Q telling the two apart; a soil checked in one box gives no row."""
     from analysis.soil.soils_apart import box_peaks_run
     assert box_peaks_run(tmp_path) is None
     cfg = bench.load_config()
-    for soil in ("sand", "clay"):
+    for soil in ("sand", "clay", "loam"):
         (tmp_path / f"{soil}-posterior.json").write_text(json.dumps({"mean": CHECKED_SET}))
     c, phi = [10.0, 11.0, 9.0, 10.5], [30.0, 30.5, 29.5, 30.0]
-    checked_rows(tmp_path, "sand", "k", cfg["check_box_mm"], c, phi).to_csv(tmp_path / "sand-check-packings.csv",
-                                                                            index=False)
-    checked_rows(tmp_path, "sand", "g", cfg["check_size_check_mm"], [v - 4 for v in c], phi).assign(box="grown") \
-        .to_csv(tmp_path / "sand-box-size.csv", index=False)
-    checked_rows(tmp_path, "clay", "k", cfg["check_box_mm"], c, phi).to_csv(tmp_path / "clay-check-packings.csv",
-                                                                            index=False)
+    for soil, drop in (("sand", 4.0), ("clay", 0.0), ("loam", None)):
+        checked_rows(tmp_path, soil, "k", cfg["check_box_mm"], c, phi).to_csv(
+            tmp_path / f"{soil}-check-packings.csv", index=False)
+        if drop is not None:
+            checked_rows(tmp_path, soil, "g", cfg["check_size_check_mm"], [v - drop for v in c], phi) \
+                .assign(box="grown").to_csv(tmp_path / f"{soil}-box-size.csv", index=False)
     table = pd.read_csv(box_peaks_run(tmp_path), comment="#")
-    assert set(table.soil) == {"sand", "pooled"}
+    assert set(table.soil) == {"sand", "clay", "pooled"}
     sand = table[(table.soil == "sand") & table.stress_kpa.notna()].set_index("stress_kpa")
     assert list(sand.index) == [50.0, 100.0, 200.0] and sand["resolved"].all()
     def mean_peaks(box_mm, cs):
@@ -1254,9 +1255,13 @@ def test_the_box_peaks_read_the_size_check_on_each_stress_peak_and_pool_the_soil
                                                          abs=1e-3)
     assert sand["shift_pct"].to_numpy() == pytest.approx(
         100 * (sand["grown_kpa"] / sand["configured_kpa"] - 1).to_numpy(), abs=0.01)
-    for pooled in (table[(table.soil == "sand") & table.stress_kpa.isna()], table[table.soil == "pooled"]):
-        assert len(pooled) == 1 and pooled.pooled_rows.iloc[0] == 3                 # sand's stresses; then every soil's
-        assert sand["shift_pct"].min() < pooled.shift_pct.iloc[0] < sand["shift_pct"].max()
+    own = table[(table.soil == "sand") & table.stress_kpa.isna()]
+    assert len(own) == 1 and own.pooled_rows.iloc[0] == 3                               # sand's stresses
+    assert sand["shift_pct"].min() < own.shift_pct.iloc[0] < sand["shift_pct"].max()
+    clay = table[(table.soil == "clay") & table.stress_kpa.isna()].shift_pct.iloc[0]
+    both = table[table.soil == "pooled"]
+    assert len(both) == 1 and both.pooled_rows.iloc[0] == 6
+    assert own.shift_pct.iloc[0] < both.shift_pct.iloc[0] < clay and both.q_p.iloc[0] < 0.05     # they differ
 
 
 def test_the_cone_per_c_table_reads_each_checked_sets_box_and_its_kept_cones_at_the_runs_grains(tmp_path):

@@ -308,11 +308,12 @@ def box_shift_pooled_run(out_dir: Path = BENCH_DIR) -> Path | None:
     if not source.exists():
         return None
     shifts = pd.read_csv(source, comment="#")
-    table = pd.concat([pooled_shift(t).assign(configured_mm=small, grown_mm=big,
-                                              soils_pooled=" ".join(t["soil"].unique()))
-                       for (small, big), t in shifts.groupby(["configured_mm", "grown_mm"], sort=False)])
-    if table.empty:
+    pooled = [pooled_shift(t).assign(configured_mm=small, grown_mm=big, soils_pooled=" ".join(t["soil"].unique()))
+              for (small, big), t in shifts.groupby(["configured_mm", "grown_mm"], sort=False)]
+    pooled = [t for t in pooled if len(t)]             # a pair checked in one soil pools nothing
+    if not pooled:
         return None
+    table = pd.concat(pooled)
     path = Path(out_dir) / "box-shift-pooled.csv"
     atomic_csv(table.round(3), path,
                "./holes calibration-report; box-shift.csv's soils pooled per box pair and response: the fixed-effect "
@@ -369,8 +370,9 @@ def box_peaks_run(out_dir: Path = BENCH_DIR) -> Path | None:
     pooled = []
     for keys in (["soil", "configured_mm", "grown_mm"], ["configured_mm", "grown_mm"]):   # each soil's, then all
         for (*soil, small, big), t in table.groupby(keys, sort=False):
-            pooled.append(pooled_shift(t).rename(columns={"soils": "pooled_rows"}).assign(
-                soil=soil[0] if soil else "pooled", configured_mm=small, grown_mm=big))
+            if keys[0] == "soil" or t["soil"].nunique() > 1:       # all soils: where more than one ran the pair
+                pooled.append(pooled_shift(t).rename(columns={"soils": "pooled_rows"}).assign(
+                    soil=soil[0] if soil else "pooled", configured_mm=small, grown_mm=big))
     path = out_dir / "box-peaks.csv"
     table = pd.concat([table, *pooled]).drop(columns="response").rename(columns={
         "configured_mean": "configured_kpa", "grown_mean": "grown_kpa", "configured_sd": "configured_sd_pct",
