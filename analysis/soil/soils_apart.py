@@ -73,7 +73,7 @@ def run(out_dir: Path = BENCH_DIR) -> list[Path]:
     for key, responses in (("check_box_mm", RESPONSES), ("check_size_check_mm", SHEAR_RESPONSES)):
         box = cfg[key]
         checks = {s: posterior_packings(s, box, out_dir, out_dir) for s in soils}
-        tables.append(responses_apart(checks, targets, responses).assign(read_in="x".join(f"{v:g}" for v in box)))
+        tables.append(responses_apart(checks, targets, responses).assign(read_in=mm(box)))
     cones = {s: pd.read_csv(out_dir / f"{s}-check.csv", comment="#") for s in soils}
     tables.append(responses_apart(cones, targets, ("cone_kpa",)).assign(read_in="cone"))
     paths = [out_dir / "soils-apart.csv", out_dir / "soils-apart-parameters.csv"]
@@ -282,10 +282,10 @@ def mm(box) -> str:
 def box_shift_run(out_dir: Path = BENCH_DIR) -> Path | None:
     """box-shift.csv: the shear box's size checks over every packing each box ran (`size_shift` of
     `posterior_packings`), per soil's posterior mean and box pair (`box_pairs`); None when no soil has a pair."""
-    out_dir = Path(out_dir)
+    out_dir, pairs = Path(out_dir), box_pairs(load_config())
     tables = []
     for soil in SOILS:
-        for small, big in box_pairs(load_config()):
+        for small, big in pairs:
             a, b = (posterior_packings(soil, box, out_dir, out_dir) for box in (small, big))
             shift = size_shift(a, b, SHEAR_RESPONSES) if len(a) and len(b) else pd.DataFrame()
             if len(shift):
@@ -357,10 +357,10 @@ def box_peaks_run(out_dir: Path = BENCH_DIR) -> Path | None:
     (`peak_shift`), pooled over its stresses (`pooled_shift`, the stress left blank), and per box pair every soil's
     and stress's shift pooled (soil "pooled"), each with Cochran's Q for whether the shifts it pools differ; None when
     no soil has a pair."""
-    out_dir = Path(out_dir)
+    out_dir, pairs = Path(out_dir), box_pairs(load_config())
     tables = []
     for soil in SOILS:
-        for small, big in box_pairs(load_config()):
+        for small, big in pairs:
             a, b = (posterior_peaks(soil, box, out_dir) for box in (small, big))
             if len(a) > 1 and len(b) > 1:
                 tables.append(peak_shift(a, b).assign(soil=soil, configured_mm=mm(small), grown_mm=mm(big)))
@@ -382,10 +382,10 @@ def box_peaks_run(out_dir: Path = BENCH_DIR) -> Path | None:
         {c: "Int64" for c in ("configured_n", "grown_n", "pooled_rows")})
     atomic_csv(table.round(3), path,
                "./holes calibration-report; the shear box's size checks read on its peaks: per soil, box pair and "
-               "normal stress, the posterior mean's peak shear stress (kPa) over every packing each box ran, its SDs and the "
-               "grown box's shift in % of the configured box's mean peak, with its Welch 95 % interval; passes: the "
-               "size rule on the peak; per box pair (soil "
-               "'pooled') every soil's and stress's shift pooled by inverse Welch variance, with Cochran's Q")
+               "normal stress, the posterior mean's peak shear stress (kPa) over every packing each box ran, its SDs "
+               "and the grown box's shift in % of the configured box's mean peak, with its Welch 95 % interval; "
+               "passes: the size rule on the peak; per soil and box pair (the stress blank) its stresses' shifts "
+               "pooled by inverse Welch variance, and (soil 'pooled') every soil's and stress's, with Cochran's Q")
     return path
 
 
