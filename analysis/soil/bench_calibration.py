@@ -749,7 +749,7 @@ def size_check(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR, bo
     boxes = {"configured": configured, "grown": grown}
     jobs = [(label, settings, s) for label, settings in boxes.items() for s in seeds]
     rows = evaluate_all(soil, [(s, params) for _, _, s in jobs], cfg, out_dir, cfgs=[b for _, b, _ in jobs])
-    table = pd.DataFrame([{"box": label, "size_mm": "x".join(f"{v:g}" for v in settings["size_mm"]), **row}
+    table = pd.DataFrame([{"box": label, "size_mm": mm(settings["size_mm"]), **row}
                           for (label, settings, _), row in zip(jobs, rows)]).drop(columns=["tau_peak_kpa"], errors="ignore")
     flag = "--size-check" + ("" if box == "filter" else f" {box}") + (f" --seeds {','.join(map(str, seeds))}"
                                                                        if seeds != [int(s) for s in cfg["check_seeds"]] else "")
@@ -1423,6 +1423,15 @@ def soil_evaluations(soil: str, out_dir: Path = BENCH_DIR, box: list | None = No
 def evaluation_box(folder: Path) -> list[float] | None:
     """The size (mm) of the shear box an evaluation's folder ran, from its result file; None if it holds none."""
     return shear_box_mm(scene_result(folder, "shear") if folder.is_dir() else None)
+
+
+def mm(box) -> str:
+    """A box's lengths as the tables name it.
+
+    >>> mm([225, 225.0, 150])
+    '225x225x150'
+    """
+    return "x".join(f"{float(v):g}" for v in box)
 
 
 def shear_box_mm(data: dict | None) -> list[float] | None:

@@ -17,7 +17,7 @@ from scipy import stats
 from analysis.core.io import atomic_csv
 from analysis.core.soil_config import SOILS
 from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, cone_path, cone_range, difference_interval,
-                                             filter_seeds, load_config, mean_verdict, measured, posterior_packings,
+                                             filter_seeds, load_config, mean_verdict, measured, mm, posterior_packings,
                                              pooled_shift, runs_cone, scene_result, shear_box_mm, SHEAR_RESPONSES,
                                              size_shift, target_ranges)
 from analysis.soil.shear import READING
@@ -243,7 +243,7 @@ def shear_scatter_run(out_dir: Path = BENCH_DIR) -> Path | None:
         data = [d for d in (scene_result(p, "shear") for p in found if p is not None)
                 if d and d["overrides"].get("bond_fragile") == 0]          # ductile bonds, the model's
         stresses = {tuple(t["stress_kpa"] for t in d["tests"]) for d in data}
-        boxes = {"x".join(f"{v:g}" for v in shear_box_mm(d) or []) for d in data}
+        boxes = {mm(shear_box_mm(d) or []) for d in data}
         if len(data) >= 3 and len(stresses) == 1 and len(boxes) == 1:
             by_box.setdefault(boxes.pop(), []).append(
                 (list(stresses.pop()), np.array([[t["tau_peak_kpa"] for t in d["tests"]] for d in data])))
@@ -274,19 +274,16 @@ def box_pairs(cfg: dict) -> list[tuple[list, list]]:
     return pairs + [(cfg["check_box_mm"], tall), (tall, cfg["check_size_check_mm"])]
 
 
-def mm(box) -> str:
-    """A box's lengths as the tables name it: "225x225x150"."""
-    return "x".join(f"{float(v):g}" for v in box)
-
-
 def box_shift_run(out_dir: Path = BENCH_DIR) -> Path | None:
     """box-shift.csv: the shear box's size checks over every packing each box ran (`size_shift` of
     `posterior_packings`), per soil's posterior mean and box pair (`box_pairs`); None when no soil has a pair."""
     out_dir, pairs = Path(out_dir), box_pairs(load_config())
+    boxes = {mm(box): box for pair in pairs for box in pair}          # a box in several pairs is read once
     tables = []
     for soil in SOILS:
+        read = {name: posterior_packings(soil, box, out_dir, out_dir) for name, box in boxes.items()}
         for small, big in pairs:
-            a, b = (posterior_packings(soil, box, out_dir, out_dir) for box in (small, big))
+            a, b = read[mm(small)], read[mm(big)]
             shift = size_shift(a, b, SHEAR_RESPONSES) if len(a) and len(b) else pd.DataFrame()
             if len(shift):
                 tables.append(shift.assign(soil=soil, configured_mm=mm(small), grown_mm=mm(big)))
@@ -358,10 +355,12 @@ def box_peaks_run(out_dir: Path = BENCH_DIR) -> Path | None:
     and stress's shift pooled (soil "pooled"), each with Cochran's Q for whether the shifts it pools differ; None when
     no soil has a pair."""
     out_dir, pairs = Path(out_dir), box_pairs(load_config())
+    boxes = {mm(box): box for pair in pairs for box in pair}          # a box in several pairs is read once
     tables = []
     for soil in SOILS:
+        read = {name: posterior_peaks(soil, box, out_dir) for name, box in boxes.items()}
         for small, big in pairs:
-            a, b = (posterior_peaks(soil, box, out_dir) for box in (small, big))
+            a, b = read[mm(small)], read[mm(big)]
             if len(a) > 1 and len(b) > 1:
                 tables.append(peak_shift(a, b).assign(soil=soil, configured_mm=mm(small), grown_mm=mm(big)))
     if not tables:
