@@ -110,6 +110,8 @@ def build_parser() -> argparse.ArgumentParser:
     scene("cone", "cone.py", "virtual cone penetrometer in a bed (ASABE S313, scaled)")
     scene("shear", "shear.py", "a direct shear box on a settled bed: peak shear stress at each normal stress, c and φ")
     scene("collapse", "collapse.py", "a column of disturbed soil let slump: the slope it stands at")
+    scene("simple-shear", "simple_shear.py", "a wall-free (periodic) simple shear cell: peak shear stress at each "
+          "normal stress, c and φ")
     p = sub.add_parser("calibrate", help="fit a soil's cohesion to the Table 2 cone index (within 5 %%)")
     p.add_argument("--soil", required=True)
     p.add_argument("--resolution", default="coarse", help="the beds' grains (default: r = 8 mm, as calibrated)")
@@ -140,11 +142,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--runs-grains", action="store_true",
                    help="with --cones: the cone at the runs' grains, as the checks read it, instead of the filter's "
                         "(results/calibration/bench/<soil>-cones-runs-grains.csv)")
-    p.add_argument("--size-check", nargs="?", const="filter", default=None, metavar="filter|checks|height",
+    p.add_argument("--size-check", nargs="?", const="filter", default=None, metavar="filter|checks|height|cell",
                    help="with --bench: no calibration; the posterior mean's bench responses on the check packings in "
                         "the filter's box (or the checks' shear box) and one grown by half (height: the checks' box "
-                        "grown in height alone) (results/calibration/bench/<soil>-size.csv, <soil>-box-size.csv, "
-                        "<soil>-box-height.csv)")
+                        "grown in height alone; cell: the wall-free simple shear cell at each of [bench] "
+                        "cell_edges_mm) (results/calibration/bench/<soil>-size.csv, <soil>-box-size.csv, "
+                        "<soil>-box-height.csv, cell.csv)")
     p.add_argument("--remeasure", action="store_true",
                    help="with --bench: nothing runs; every kept check of the soil measured again from its evaluations' "
                         "stored results (c and φ, the collapse slope) and judged again, the posterior's recorded in "
@@ -296,7 +299,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = build_parser()
     args, rest = parser.parse_known_args(argv)
-    if rest and args.command not in ("bed", "cone", "shear", "collapse", "run", "duckbeak"):
+    if rest and args.command not in ("bed", "cone", "shear", "collapse", "simple-shear", "run", "duckbeak"):
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
     args.rest = rest
     try:

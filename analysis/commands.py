@@ -174,6 +174,17 @@ def packings_checked(args, cfg: dict) -> dict:
     return result
 
 
+def size_checked(args, cfg: dict):
+    """`calibrate --bench --size-check`: the shear box's or collapse column's (analysis/soil/bench_calibration.py),
+    or with `cell` the simple shear cell's (analysis/soil/cell.py) on --seeds (default [bench] check_seeds)."""
+    from analysis.soil import bench_calibration as bench
+    if args.size_check == "cell":
+        from analysis.soil import cell
+        return cell.size_check(args.soil, cfg, args.seeds or [int(s) for s in cfg["check_seeds"]],
+                               cfg["workers"]).round(2)
+    return bench.size_check(args.soil, cfg, box=args.size_check, seeds=args.seeds).round(2)
+
+
 def cmd_calibrate_bench(args) -> int:
     """`calibrate --bench`: the soil's three contact parameters on its bench tests (GrainLearning), then the
     posterior's bench responses on the check packings."""
@@ -196,7 +207,7 @@ def cmd_calibrate_bench(args) -> int:
         return 2
     if asked:
         import pandas as pd
-        checks = {"--size-check": lambda: bench.size_check(args.soil, cfg, box=args.size_check, seeds=args.seeds).round(2),
+        checks = {"--size-check": lambda: size_checked(args, cfg),
                   "--cones": lambda: bench.cones(args.soil, args.cones, cfg, workers=cfg["workers"],
                                                 runs_grains=args.runs_grains),
                   "--probe": lambda: bench.probes(args.soil, args.probe, cfg),
@@ -300,13 +311,13 @@ def cmd_cone_damage(args) -> int:
 
 
 def cmd_calibration_report(args) -> int:
-    from analysis.soil import bench_calibration, calibration_report, soils_apart
+    from analysis.soil import bench_calibration, calibration_report, cell, soils_apart
     print(calibration_report.run().to_string(index=False))
     for path in [*bench_calibration.report(), *soils_apart.run(), soils_apart.filter_packing_run(),
                  soils_apart.check_odds_run(), soils_apart.shear_scatter_run(), soils_apart.packing_effects_run(),
                  soils_apart.cone_per_c_run(), soils_apart.box_shift_run(), soils_apart.box_shift_pooled_run(),
                  soils_apart.box_peaks_run(),
-                 soils_apart.reading_reweighted_run()]:
+                 soils_apart.reading_reweighted_run(), *cell.run()]:
         if path:
             print(f"wrote {path}")
     return 0

@@ -117,3 +117,25 @@ def tilled_keep(z, z_surface: float, depth: float, density: float, seed: int):
     keep = np.ones(z.size, bool)
     keep[out] = False
     return keep
+
+
+CELL_SETTLE_KPA = 1.0        # a simple shear cell's packing's vertical stress: a bed's own weight at a 150 mm box's mid-depth
+CELL_PACKED_FRACTION = 0.55  # the solid fraction its cloud is planned for (the cell ends about cubic)
+CELL_INERTIAL = 1e-3         # the inertial number γ̇ d / √(σn / ρ) a cell is sheared at: half of it moves the peaks
+                             # less than the packings' scatter (results/calibration/bench/cell-rate.csv)
+
+
+def cell_key(soil, res, edge: float, seed: int, settle_kpa: float = CELL_SETTLE_KPA,
+             packed_fraction: float = CELL_PACKED_FRACTION) -> str:
+    """A simple shear cell's packing's cache name (scripts/simple_shear.py): the soil's settling parameters, the
+    grains, the cell's edge, the seed and the packing's own settings.
+
+    >>> from types import SimpleNamespace as N
+    >>> soil = N(name="clay", young=2e7, settling_key=lambda: {"friction_deg": 25.0})
+    >>> cell_key(soil, N(name="medium", radius=0.006, spread=0.25), 0.12, 3, 1.0, 0.55).rsplit("-", 1)[0]
+    'clay-medium-cell120-s3'
+    """
+    params = {"soil": soil.name, **soil.settling_key(), "young": soil.young, "radius": res.radius,
+              "spread": res.spread, "edge": round(edge, 6), "seed": seed, "settle_kpa": settle_kpa,
+              "packed_fraction": packed_fraction, "version": 1}
+    return f"{soil.name}-{res.name}-cell{round(1000 * edge)}-s{seed}-{digest(params)}"

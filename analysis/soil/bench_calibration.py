@@ -105,6 +105,11 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
                                or float(taller[2]) <= float(box[2])):
         raise ConfigError(f"{path}: bench.check_height_check_mm = {taller}: allowed check_box_mm's {box} with a "
                           "greater height")
+    edges = bench.get("cell_edges_mm")
+    if edges is not None and (len(edges) < 2 or any(not 40 <= float(e) <= 500 for e in edges)
+                              or any(float(b) <= float(a) for a, b in zip(edges, edges[1:]))):
+        raise ConfigError(f"{path}: bench.cell_edges_mm = {edges}: allowed two or more rising edges of 40-500 mm (the "
+                          "simple shear cell's size check)")
     if soil is not None:
         bounds.update(per_soil.get(soil, {}))
     if len(bounds) < 3:

@@ -1,0 +1,269 @@
+"""The wall-free simple shear cell's reading of the soils (scripts/simple_shear.py runs the cell; no YADE here).
+
+Each soil's posterior mean (results/calibration/bench/<soil>-posterior.json) sheared in periodic cells of two edges,
+one the other grown by half, on several packings each (`./holes calibrate --soil S --bench --cell --seeds 1,2,3`,
+the runs kept in results/calibration/bench/cell/<soil>/): c and φ of each packing's Mohr–Coulomb fit (peak τ against
+σzz at the peak, analysis/soil/shear.py); the cell's size check by the shear box's rule (`size_shift`: the grown
+cell moves the mean less than the packings' SD in the smaller); each soil's c and φ in the smallest cell that passes
+against its target's range (`mean_verdict`); and each shear box's peak beside the cell's, per normal stress.
+Writes cell.csv, cell-size.csv, cell-rate.csv (the rate check: a cell sheared at half the rate), cell-box.csv
+and cell.png in results/calibration/bench/.
+"""
+from __future__ import annotations
+
+import json
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.core.bed_spec import CELL_INERTIAL, cell_key
+from analysis.core.config import load_resolution
+from analysis.core.io import atomic_csv
+from analysis.core.runner import run_logged
+from analysis.core.schema import ROOT, digest
+from analysis.core.soil_config import load_soil
+from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS
+from analysis.soil.bench_calibration import (SHEAR_RESPONSES, in_parallel, load_config, mean_verdict, mm,
+                                             overrides, posterior_mean, posterior_packings, scene_result, size_shift,
+                                             target_ranges)
+from analysis.soil.shear import mohr_coulomb
+
+CELL_DIR = BENCH_DIR / "cell"
+SOILS = ("clay", "loam", "sand")
+GROWTH = 1.5              # the size check grows the cell's edge by half
+
+
+def size_check(soil: str, cfg: dict, seeds: list[int], workers: int, bench_dir: Path = BENCH_DIR,
+               folder: Path = CELL_DIR) -> pd.DataFrame:
+    """The soil's posterior mean sheared in every cell of [bench] cell_edges_mm on the packings `seeds`, `workers`
+    scenes at a time, each kept in <folder>/<soil>/set-<its overrides' hash>/ (a finished one is not run again);
+    then the tables (`run`). Returns the soil's rows of cell.csv."""
+    test = posterior_overrides(soil, bench_dir)
+    out = Path(folder) / soil / f"set-{digest(test, 8)}"
+    out.mkdir(parents=True, exist_ok=True)
+    stresses = ",".join(f"{float(s):g}" for s in cfg["stresses_kpa"])
+    soil_cfg, res = load_soil(soil), load_resolution(cfg["resolution"])
+
+    def one(job):
+        edge, seed = job
+        key = cell_key(soil_cfg, res, edge / 1000, seed)
+        if (out / f"{key}-{stresses.replace(',', '_')}.json").exists():
+            return
+        cmd = [sys.executable, str(ROOT / "scripts/simple_shear.py"), "--soil", soil, "--resolution", cfg["resolution"],
+               "--size", f"{edge:g}", "--seed", str(seed), "--stress", stresses, "--out", str(out),
+               *[a for k, v in test.items() for a in ("--test-set", f"{k}={v}")]]
+        code, _ = run_logged(cmd, out / f"{key}.log")
+        if code != 0:
+            raise RuntimeError(f"scripts/simple_shear.py exited {code} ({out / f'{key}.log'})")
+
+    jobs = [(float(e), s) for e in cfg["cell_edges_mm"] for s in seeds]
+    in_parallel(one, jobs, workers, f"cell {soil}", "cells")
+    run(folder, bench_dir)
+    table = pd.read_csv(Path(bench_dir) / "cell.csv")
+    return table[table["soil"] == soil]
+
+
+def cell_fit(result: dict) -> dict:
+    """c and φ of one packing's cell tests: the peak τ against σzz at the peak.
+
+    >>> tests = [{"stress_kpa": s, "sigma_at_peak_kpa": s, "tau_peak_kpa": 5 + 0.5 * s, "size_m": [0.12] * 3}
+    ...          for s in (50, 100, 200)]
+    >>> r = cell_fit({"bed": "clay-medium-cell120-s3-0a", "inertial": 1e-3, "tests": tests})
+    >>> r["edge_mm"], r["seed"], r["inertial"], round(r["c_kpa"], 2), round(r["phi_deg"], 2)
+    (120, 3, 0.001, 5.0, 26.57)
+    """
+    tests = result["tests"]
+    fit = mohr_coulomb([t["sigma_at_peak_kpa"] for t in tests], [t["tau_peak_kpa"] for t in tests])
+    seed = int(re.search(r"-s(\d+)-", result["bed"]).group(1))
+    return {"edge_mm": round(1000 * tests[0]["size_m"][0]), "seed": seed, "inertial": float(result["inertial"]),
+            "c_kpa": fit["c_kpa"],
+            "phi_deg": fit["phi_deg"], **{float(t["stress_kpa"]): float(t["tau_peak_kpa"]) for t in tests}}
+
+
+def cell_packings(soil: str, folder: Path = CELL_DIR, bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
+    """Every finished cell run of the soil's posterior mean (its test overrides those of `overrides`), one row per
+    cell edge, shear rate and packing: `cell_fit` with the peaks per normal stress (kPa columns)."""
+    path = Path(folder) / soil
+    if not path.is_dir() or not (Path(bench_dir) / f"{soil}-posterior.json").exists():
+        return pd.DataFrame()
+    want = posterior_overrides(soil, bench_dir)
+    rows = []
+    for f in sorted(path.rglob("*.json")):
+        if f.name.endswith(".part.json"):
+            continue
+        result = json.loads(f.read_text())
+        if result.get("overrides") == want:
+            rows.append(cell_fit(result))
+    return pd.DataFrame(rows).sort_values(["edge_mm", "inertial", "seed"]) if rows else pd.DataFrame()
+
+
+def rate_table(cells: pd.DataFrame) -> pd.DataFrame:
+    """The cell's rate check: per edge, each other inertial number's c and φ against CELL_INERTIAL's (`size_shift`'s
+    rule: the slower cell moves the mean less than the packings' SD).
+
+    >>> cells = pd.DataFrame({"edge_mm": [120] * 6, "inertial": [1e-3] * 3 + [5e-4] * 3,
+    ...                       "c_kpa": [5, 6, 7, 4.5, 5.5, 6.5], "phi_deg": [25, 26, 27, 25, 26, 27]})
+    >>> rate_table(cells)[["inertial", "response", "shift", "passes"]].to_dict(orient="list")
+    {'inertial': [0.0005, 0.0005], 'response': ['c_kpa', 'phi_deg'], 'shift': [-0.5, 0.0], 'passes': [True, True]}
+    """
+    tables = []
+    for (edge, inertial), t in cells.groupby(["edge_mm", "inertial"]):
+        base = cells[(cells["edge_mm"] == edge) & (cells["inertial"] == CELL_INERTIAL)]
+        if inertial != CELL_INERTIAL and len(base):
+            tables.append(size_shift(base, t, SHEAR_RESPONSES).assign(edge_mm=edge, inertial=inertial))
+    return pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
+
+
+def posterior_overrides(soil: str, bench_dir: Path = BENCH_DIR) -> dict:
+    """The scene's --test-set of the soil's posterior mean with the calibration's fixed parameters, as the scene
+    records them (`overrides` of the bench calibration, read back as numbers)."""
+    items = overrides(posterior_mean(soil, bench_dir), load_config(soil=soil).get("fixed"))
+    return dict(sorted({k: float(v) for k, v in (i.split("=") for i in items)}.items()))
+
+
+def size_table(cells: pd.DataFrame) -> pd.DataFrame:
+    """The cell's size check, per pair of edges one GROWTH apart (`size_shift` of c and φ).
+
+    >>> cells = pd.DataFrame({"edge_mm": [120] * 3 + [180] * 3, "c_kpa": [5, 6, 7, 5.5, 6.5, 7.5],
+    ...                       "phi_deg": [25, 26, 27, 25, 26, 27]})
+    >>> size_table(cells)[["configured_mm", "response", "shift", "passes"]].to_dict(orient="list")
+    {'configured_mm': [120, 120], 'response': ['c_kpa', 'phi_deg'], 'shift': [0.5, 0.0], 'passes': [True, True]}
+    """
+    edges = sorted(cells["edge_mm"].unique()) if len(cells) else []
+    tables = []
+    for small in edges:
+        big = [e for e in edges if abs(e / small - GROWTH) < 0.02]
+        if big:
+            shift = size_shift(cells[cells["edge_mm"] == small], cells[cells["edge_mm"] == big[0]], SHEAR_RESPONSES)
+            tables.append(shift.assign(configured_mm=small, grown_mm=big[0]))
+    return pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
+
+
+def sized_edge(sizes: pd.DataFrame, response: str) -> int | None:
+    """The smallest cell edge whose growth by half passes for `response`; None where none does."""
+    passed = sizes[(sizes["response"] == response) & sizes["passes"]] if len(sizes) else sizes
+    return int(passed["configured_mm"].min()) if len(passed) else None
+
+
+def verdicts(soil: str, cells: pd.DataFrame, sizes: pd.DataFrame) -> list[dict]:
+    """Per cell edge and response: the packings' mean, SD and mean's interval against the target, and whether the
+    edge is the one the size check points to (`sized`)."""
+    ranges = target_ranges(soil, load_config(soil=soil))
+    rows = []
+    for edge, t in cells.groupby("edge_mm"):
+        for r in SHEAR_RESPONSES:
+            v = t[r].dropna().to_numpy(float)
+            verdict = mean_verdict(v, *ranges[r])
+            rows.append({"soil": soil, "edge_mm": int(edge), "response": r, "packings": len(v),
+                         "mean": float(v.mean()), "sd": float(v.std(ddof=1)) if len(v) > 1 else np.nan,
+                         "mean_lo": verdict["mean_interval"][0], "mean_hi": verdict["mean_interval"][1],
+                         "target_lo": ranges[r][0], "target_hi": ranges[r][1], "verdict": verdict["mean_verdict"],
+                         "sized": sized_edge(sizes, r) == int(edge)})
+    return rows
+
+
+def box_beside(soil: str, cells: pd.DataFrame, bench_dir: Path = BENCH_DIR) -> list[dict]:
+    """Per normal stress: each cell edge's and each shear box's mean peak τ over its packings, and its peak over the
+    cell's (the largest cell), in %. The box reads its peak on the sheared area's normal stress, about 1.2 σn at its
+    peak's shift; the cell at σn: `tau_over_sigma` is each peak over the normal stress it was read at."""
+    cfg = load_config(soil=soil)
+    boxes = [cfg["size_mm"], cfg["check_box_mm"], cfg["check_size_check_mm"]]
+    stresses = [c for c in cells.columns if isinstance(c, float)]
+    largest = cells[cells["edge_mm"] == cells["edge_mm"].max()]
+    rows = []
+    for edge, t in cells.groupby("edge_mm"):
+        for s in stresses:
+            rows.append({"soil": soil, "test": f"cell {int(edge)} mm", "stress_kpa": s, "packings": int(t[s].notna().sum()),
+                         "tau_peak_kpa": float(t[s].mean()), "tau_over_sigma": float(t[s].mean() / s)})
+    for box in boxes:
+        peaks, sigmas = box_peaks(soil, box, bench_dir)
+        for s in stresses:
+            if s in peaks:
+                rows.append({"soil": soil, "test": f"box {mm(box)} mm", "stress_kpa": s, "packings": len(peaks[s]),
+                             "tau_peak_kpa": float(np.mean(peaks[s])),
+                             "tau_over_sigma": float(np.mean(peaks[s]) / np.mean(sigmas[s]))})
+    for row in rows:
+        row["over_cell_pct"] = 100 * (row["tau_peak_kpa"] / float(largest[row["stress_kpa"]].mean()) - 1)
+    return rows
+
+
+def box_peaks(soil: str, box_mm, bench_dir: Path = BENCH_DIR) -> tuple[dict, dict]:
+    """The soil's posterior mean's shear box peaks (kPa) in box `box_mm` per normal stress, and the normal stress
+    on the sheared area each was read at (analysis/soil/shear.py), over every packing the box ran."""
+    from analysis.soil.shear import sheared_stress
+    peaks, sigmas = {}, {}
+    for i in posterior_packings(soil, box_mm, bench_dir, bench_dir).get("id", []):
+        data = scene_result(Path(bench_dir) / soil / str(i), "shear")
+        for t in (data or {}).get("tests", []):
+            peaks.setdefault(float(t["stress_kpa"]), []).append(float(t["tau_peak_kpa"]))
+            sigmas.setdefault(float(t["stress_kpa"]), []).append(sheared_stress(t))
+    return peaks, sigmas
+
+
+def run(folder: Path = CELL_DIR, bench_dir: Path = BENCH_DIR) -> list[Path]:
+    """cell.csv, cell-size.csv, cell-rate.csv, cell-box.csv and cell.png in `bench_dir` from every soil's kept cell
+    runs (at CELL_INERTIAL; the rate check's beside them); none where no soil has one."""
+    verdict_rows, size_tables, rate_tables, beside = [], [], [], []
+    read = {}
+    for soil in SOILS:
+        every = cell_packings(soil, folder, bench_dir)
+        if every.empty:
+            continue
+        rates = rate_table(every)
+        if len(rates):
+            rate_tables.append(rates.assign(soil=soil))
+        cells = every[every["inertial"] == CELL_INERTIAL]
+        read[soil] = cells
+        sizes = size_table(cells)
+        if len(sizes):
+            size_tables.append(sizes.assign(soil=soil))
+        verdict_rows += verdicts(soil, cells, sizes)
+        beside += box_beside(soil, cells, bench_dir)
+    if not read:
+        return []
+    bench_dir = Path(bench_dir)
+    paths = [bench_dir / "cell.csv", bench_dir / "cell-box.csv"]
+    atomic_csv(pd.DataFrame(verdict_rows).round(4), paths[0])
+    atomic_csv(pd.DataFrame(beside).round(4), paths[1])
+    if size_tables:
+        paths.append(bench_dir / "cell-size.csv")
+        atomic_csv(pd.concat(size_tables, ignore_index=True).round(4), paths[-1])
+    if rate_tables:
+        paths.append(bench_dir / "cell-rate.csv")
+        atomic_csv(pd.concat(rate_tables, ignore_index=True).round(4), paths[-1])
+    paths.append(plot(read, pd.DataFrame(beside), bench_dir / "cell.png"))
+    return paths
+
+
+def plot(read: dict, beside: pd.DataFrame, path: Path) -> Path:
+    """Per soil: the cells' peaks against the normal stress (each packing, each edge), the boxes' mean peaks against
+    the stress they were read at, and the target's Mohr–Coulomb envelopes (c and φ at their ranges' ends)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, len(read), figsize=(4.2 * len(read), 3.8), squeeze=False)
+    for ax, (soil, cells) in zip(axes[0], read.items()):
+        ranges = target_ranges(soil, load_config(soil=soil))
+        s = np.linspace(0, 230, 50)
+        lo = ranges["c_kpa"][0] + s * np.tan(np.radians(ranges["phi_deg"][0]))
+        hi = ranges["c_kpa"][1] + s * np.tan(np.radians(ranges["phi_deg"][1]))
+        ax.fill_between(s, lo, hi, color=SOIL_COLOURS.get(soil, "grey"), alpha=0.15, label="target's envelopes")
+        stresses = [c for c in cells.columns if isinstance(c, float)]
+        for k, (edge, t) in enumerate(cells.groupby("edge_mm")):
+            for _, row in t.iterrows():
+                ax.plot(stresses, [row[x] for x in stresses], "o" if k == 0 else "s", ms=3.5, alpha=0.7,
+                        color=f"C{k}", label=f"cell {int(edge)} mm" if _ == t.index[0] else None)
+        boxes = beside[(beside["soil"] == soil) & beside["test"].str.startswith("box")]
+        for k, (name, t) in enumerate(boxes.groupby("test", sort=False)):
+            ax.plot(t["stress_kpa"] * 0 + t["tau_peak_kpa"] / t["tau_over_sigma"], t["tau_peak_kpa"], "^--",
+                    color=f"C{k + 3}", ms=5, label=name)
+        ax.set(title=soil, xlabel="normal stress at the peak, kPa", ylabel="peak shear stress, kPa", xlim=(0, 240))
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+

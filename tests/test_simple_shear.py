@@ -1,0 +1,102 @@
+"""The wall-free simple shear cell (scripts/simple_shear.py) and its reading (analysis/soil/cell.py): bad input is
+refused before any packing, the size check runs each cell once and reads only the posterior's runs, and (scene
+tier) a cohesionless cell reads no cohesion and a friction angle that grows with the grains' friction."""
+import json
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+
+from analysis.core.schema import ROOT, ConfigError
+from analysis.soil import bench_calibration as bench
+from analysis.soil import cell
+
+
+def test_a_cell_too_small_for_its_grains_is_refused_before_any_packing(capsys):
+    from scripts.simple_shear import main
+    assert main(["--soil", "clay", "--size", "60", "--bed-dir", "/nonexistent"]) == 2
+    assert "--size = 60 mm: allowed at least 66 mm" in capsys.readouterr().err
+    assert main(["--soil", "clay", "--test-set", "friction_deg=99", "--bed-dir", "/nonexistent"]) == 2
+    assert "friction_deg" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("edges", ["[120]", "[180, 120]", "[20, 30]"])
+def test_the_cells_edges_are_two_or_more_rising_ones(tmp_path, edges):
+    text = bench.CONFIG.read_text().replace("cell_edges_mm = [120, 180]", f"cell_edges_mm = {edges}")
+    (tmp_path / "b.toml").write_text(text)
+    with pytest.raises(ConfigError, match="cell_edges_mm"):
+        bench.load_config(tmp_path / "b.toml")
+
+
+def fake_cell(soil: str, edge: int, seed: int, c: float, phi: float, overrides: dict) -> dict:
+    """A cell's result file whose peaks lie on τ = c + σ tan φ."""
+    import math
+    tests = [{"stress_kpa": s, "sigma_at_peak_kpa": s, "tau_peak_kpa": c + s * math.tan(math.radians(phi)),
+              "size_m": [edge / 1000] * 3} for s in (50.0, 100.0, 200.0)]
+    return {"bed": f"{soil}-medium-cell{edge}-s{seed}-0123abcd", "overrides": overrides, "inertial": 1e-3,
+            "tests": tests}
+
+
+def test_the_size_check_runs_each_cell_once_and_reads_only_the_posteriors_runs(tmp_path, monkeypatch):
+    """Each edge and packing runs once with the posterior's overrides (a finished one is not run again); another
+    set's run in the folder is not read; the grown cell's shift under the packings' SD passes and the verdict is
+    read in the smaller cell."""
+    bench_dir = tmp_path / "bench"
+    bench_dir.mkdir()
+    post = {"normal_cohesion": 9e4, "friction_deg": 9.0, "pressed_adhesion": 0.1, "rolling_friction": 0.3,
+            "damping": 0.1}
+    (bench_dir / "clay-posterior.json").write_text(json.dumps({"mean": post}))
+    monkeypatch.setattr(cell, "box_beside", lambda soil, cells, bench_dir: [])
+    monkeypatch.setattr(cell, "plot", lambda read, beside, path: path)
+    ran = []
+
+    def fake_run(cmd, log_path):
+        arg = dict(zip(cmd[2::2], cmd[3::2]))
+        edge, seed = round(float(arg["--size"])), int(arg["--seed"])
+        test = dict(item.split("=") for item in cmd[cmd.index("--test-set") + 1::2])
+        ran.append((edge, seed))
+        stresses = arg["--stress"].replace(",", "_")
+        from pathlib import Path
+        name = Path(log_path).stem
+        result = fake_cell("clay", edge, seed, 22.0 + seed % 2, 26.0 + 0.1 * seed, {k: float(v) for k, v in test.items()})
+        result["bed"] = name
+        (Path(arg["--out"]) / f"{name}-{stresses}.json").write_text(json.dumps(result))
+        return 0, ""
+    monkeypatch.setattr(cell, "run_logged", fake_run)
+    cfg = {**bench.load_config(soil="clay"), "cell_edges_mm": [120, 180]}
+    other = tmp_path / "cells" / "clay" / "other"
+    other.mkdir(parents=True)
+    (other / "x.json").write_text(json.dumps(fake_cell("clay", 120, 9, 2.0, 20.0, {"friction_deg": 30.0})))
+    table = cell.size_check("clay", cfg, [1, 2, 3], 2, bench_dir, tmp_path / "cells")
+    assert sorted(ran) == [(120, 1), (120, 2), (120, 3), (180, 1), (180, 2), (180, 3)]
+    cell.size_check("clay", cfg, [1, 2, 3], 2, bench_dir, tmp_path / "cells")
+    assert len(ran) == 6                                           # every cell kept: none runs again
+    sized = table[table["sized"]].set_index("response")
+    assert sized.loc["c_kpa", "edge_mm"] == 120 and sized.loc["c_kpa", "packings"] == 3
+    assert sized.loc["c_kpa", "verdict"] == "inside" and sized.loc["c_kpa", "mean"] == pytest.approx(22 + 2 / 3, abs=1e-3)
+    sizes = pd.read_csv(bench_dir / "cell-size.csv")
+    assert sizes["passes"].all() and set(sizes["response"]) == {"c_kpa", "phi_deg"}
+
+
+@pytest.mark.scene
+def test_a_cohesionless_cell_reads_no_cohesion_and_a_friction_angle_that_grows_with_the_grains(tmp_path):
+    """Sand's grains without bonds or re-adhesion, in the smallest cell at three times the shear rate: c within a fifth
+    of the higher stress's peak of zero, and φ higher for the rougher grains (27.3 and 32.0° at 10 and 40°, c 0.0 and
+    4.0 kPa, on one packing)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def one(mu):
+        out = tmp_path / f"mu{mu:g}"
+        r = subprocess.run([sys.executable, str(ROOT / "scripts/simple_shear.py"), "--soil", "sand", "--size", "80",
+                            "--stress", "25,75", "--inertial", "0.003", "--bed-dir", str(tmp_path / "beds"),
+                            "--out", str(out), "--test-set", f"friction_deg={mu}", "--test-set", "normal_cohesion=0",
+                            "--test-set", "shear_cohesion=0", "--test-set", "pressed_adhesion=0"],
+                           capture_output=True, text=True, timeout=900, cwd=ROOT)
+        assert r.returncode == 0, r.stderr[-2000:]
+        return json.loads(next(out.glob("*.json")).read_text())
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        fits = dict(zip((10.0, 40.0), pool.map(one, (10.0, 40.0))))
+    for fit in fits.values():
+        assert abs(fit["c_kpa"]) < 0.2 * max(t["tau_peak_kpa"] for t in fit["tests"]), fit["c_kpa"]
+    assert fits[40.0]["phi_deg"] > fits[10.0]["phi_deg"] + 2, (fits[10.0]["phi_deg"], fits[40.0]["phi_deg"])
