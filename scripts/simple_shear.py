@@ -286,8 +286,8 @@ def main(argv=None) -> int:
     except RuntimeError as e:
         print(f"simple-shear stopped: {e}", file=sys.stderr)
         return 3
-    from analysis.soil.shear import mohr_coulomb
-    fit = mohr_coulomb([t["sigma_at_peak_kpa"] for t in rows], [t["tau_peak_kpa"] for t in rows])
+    from analysis.soil.shear import fit_tests
+    fit = fit_tests(rows)
     summary = {"bed": rows[0]["bed"], "soil": rows[0]["soil"], "radius_mm": 1000 * rows[0]["radius_m"],
                "overrides": test, "inertial": a.inertial, **fit, "tests": rows}
     atomic_write(out / f"{path.stem}-{'_'.join(f'{s:g}' for s in a.stress)}.json", json.dumps(summary, indent=1))

@@ -100,3 +100,37 @@ def test_a_cohesionless_cell_reads_no_cohesion_and_a_friction_angle_that_grows_w
     for fit in fits.values():
         assert abs(fit["c_kpa"]) < 0.2 * max(t["tau_peak_kpa"] for t in fit["tests"]), fit["c_kpa"]
     assert fits[40.0]["phi_deg"] > fits[10.0]["phi_deg"] + 2, (fits[10.0]["phi_deg"], fits[40.0]["phi_deg"])
+
+
+def test_the_filter_takes_the_cell_as_its_shear_test_where_the_bench_says_so(tmp_path, monkeypatch):
+    """[bench] shear_test = "cell": an evaluation runs scripts/simple_shear.py at the first cell edge (no box speed),
+    fits its peaks at σzz, and is named apart from the box's evaluation of the same set; a bad shear_test is refused."""
+    from pathlib import Path
+    from analysis.core import runner
+    from analysis.soil import shear
+    cfg = bench.load_config()
+    params = {"normal_cohesion": 9e4, "friction_deg": 9.0, "pressed_adhesion": 0.1, "rolling_friction": 0.3,
+              "damping": 0.1}
+    celled = {**cfg, "shear_test": "cell"}
+    assert bench.evaluation_id("clay", 1, params, cfg) != bench.evaluation_id("clay", 1, params, celled)
+    ran = {}
+
+    def fake(cmd, sink):
+        scene, folder = Path(cmd[1]).stem, Path(cmd[cmd.index("--out") + 1])
+        ran[scene] = cmd
+        if scene == "collapse":
+            heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
+            (folder / "column.json").write_text(json.dumps({"profile_mm": heap}))
+            return 0, json.dumps({"runout_mm": 100.0})
+        result = fake_cell("clay", 120, 1, 7.0, 25.0, {})
+        (folder / "cell.json").write_text(json.dumps(result))
+        return 0, json.dumps(shear.fit_tests(result["tests"]))
+    monkeypatch.setattr(runner, "run_process", fake)
+    row = bench.evaluate("clay", 1, params, celled, tmp_path)
+    assert set(ran) == {"simple_shear", "collapse"} and "--speed" not in ran["simple_shear"]
+    assert ran["simple_shear"][ran["simple_shear"].index("--size") + 1] == "120"
+    assert row["c_kpa"] == pytest.approx(7.0) and row["phi_deg"] == pytest.approx(25.0)
+    text = bench.CONFIG.read_text().replace('shear_test = "box"', 'shear_test = "ring"')
+    (tmp_path / "b.toml").write_text(text)
+    with pytest.raises(ConfigError, match="shear_test"):
+        bench.load_config(tmp_path / "b.toml")

@@ -110,6 +110,10 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
                               or any(float(b) <= float(a) for a, b in zip(edges, edges[1:]))):
         raise ConfigError(f"{path}: bench.cell_edges_mm = {edges}: allowed two or more rising edges of 40-500 mm (the "
                           "simple shear cell's size check)")
+    if bench.get("shear_test", "box") not in ("box", "cell") or (bench.get("shear_test") == "cell" and edges is None):
+        raise ConfigError(f"{path}: bench.shear_test = {bench.get('shear_test')!r}: allowed \"box\" (the direct shear "
+                          "box) or \"cell\" (the wall-free simple shear cell, at the first of cell_edges_mm, which it "
+                          "needs)")
     if soil is not None:
         bounds.update(per_soil.get(soil, {}))
     if len(bounds) < 3:
@@ -202,8 +206,21 @@ def scene_inputs(scene: str, cfg: dict) -> dict:
     common = {"resolution": cfg["resolution"], "fixed": dict(sorted((cfg.get("fixed") or {}).items()))}
     if scene == "shear":
         return {**common, "size_mm": [float(v) for v in cfg["size_mm"]],
-                "stresses": [float(v) for v in cfg["stresses_kpa"]], "speed": float(cfg["speed_m_s"])}
+                "stresses": [float(v) for v in cfg["stresses_kpa"]], "speed": float(cfg["speed_m_s"]),
+                **shear_test_key(cfg)}
     return {**common, "size_mm": [float(v) for v in collapse_size(cfg)]}
+
+
+def shear_test_key(cfg: dict) -> dict:
+    """What names a filter's shear test beyond the box's settings: nothing for the box (evaluations keep their ids),
+    the cell and its edge for the wall-free cell ([bench] shear_test = "cell", its first cell_edges_mm).
+
+    >>> shear_test_key({}), shear_test_key({"shear_test": "cell", "cell_edges_mm": [120, 180]})
+    ({}, {'shear_test': 'cell', 'cell_edge_mm': 120.0})
+    """
+    if cfg.get("shear_test", "box") == "box":
+        return {}
+    return {"shear_test": "cell", "cell_edge_mm": float(cfg["cell_edges_mm"][0])}
 
 
 def from_twin(scene: str, soil: str, seed: int, params: dict, cfg: dict, folder: Path, out_dir: Path) -> dict | None:
@@ -233,6 +250,7 @@ def evaluation_id(soil: str, seed: int, params: dict, cfg: dict) -> str:
         key["fixed"] = dict(sorted(cfg["fixed"].items()))
     if collapse_size(cfg) != list(cfg["size_mm"]):     # likewise a collapse column of its own
         key["collapse_size_mm"] = collapse_size(cfg)
+    key.update(shear_test_key(cfg))                     # and the wall-free cell in place of the box
     return f"s{seed}-{digest(key, 10)}"
 
 
@@ -249,10 +267,10 @@ def overrides(params: dict, fixed: dict | None = None) -> list[str]:
 
 
 def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
-    """Run (or reuse) the shear box and the collapse test of one parameter set on one packing; returns the
-    responses with the parameters. An evaluation stopped between its tests reruns only the test it lacks
-    (`scene_result`; `resumed` names the one read back, and `wall_s` is this run's time). A failed scene raises
-    RuntimeError with its log's tail."""
+    """Run (or reuse) the shear box (or the wall-free cell, [bench] shear_test) and the collapse test of one parameter
+    set on one packing; returns the responses with the parameters. An evaluation stopped between its tests reruns
+    only the test it lacks (`scene_result`; `resumed` names the one read back, and `wall_s` is this run's time). A
+    failed scene raises RuntimeError with its log's tail."""
     folder = Path(out_dir) / soil / evaluation_id(soil, seed, params, cfg)
     done = folder / "responses.json"
     if done.exists():
@@ -265,8 +283,10 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
         common += ["--test-set", item]
     wall0 = time.time()
     results, resumed = {}, []
-    shear = ["--size", ",".join(map(str, cfg["size_mm"])), "--stress", ",".join(map(str, cfg["stresses_kpa"])),
-             "--speed", str(cfg["speed_m_s"])]
+    cell = shear_test_key(cfg)
+    shear = ["--size", f"{cell['cell_edge_mm']:g}" if cell else ",".join(map(str, cfg["size_mm"])),
+             "--stress", ",".join(map(str, cfg["stresses_kpa"])), *([] if cell else ["--speed", str(cfg["speed_m_s"])])]
+    script = {"shear": "simple_shear" if cell else "shear", "collapse": "collapse"}
     for scene, extra in (("shear", shear), ("collapse", ["--size", ",".join(map(str, collapse_size(cfg)))])):
         results[scene] = scene_result(folder, scene)
         if results[scene] is not None:       # a stopped evaluation resumes after its last finished test
@@ -276,7 +296,7 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
         if results[scene] is not None:       # the same scene of the same set and packing, run beside another box
             resumed.append(f"{scene} (a twin's)")
             continue
-        code, out = run_logged([sys.executable, str(ROOT / f"scripts/{scene}.py"), *common, *extra],
+        code, out = run_logged([sys.executable, str(ROOT / f"scripts/{script[scene]}.py"), *common, *extra],
                                folder / f"{scene}.log")
         if code != 0:
             tail = "".join((folder / f"{scene}.log").read_text().splitlines(keepends=True)[-8:])
@@ -1205,7 +1225,7 @@ def record_packings(soil: str, result: dict, seeds: list[int], out_dir: Path = B
     """The posterior's check on more packings written into the soil config's `[bench_posterior]` beside the filter's
     posterior (<out_dir>/<soil>-posterior.json) and its check on the check packings (<soil>-check.json), and where
     the checks' box grown by half ([bench] check_size_check_mm) has run on two packings or more, its shear box's
-    verdicts there (`grown_box_packings`)."""
+    verdicts there (`grown_box_packings`), and the wall-free cell's where it has run (`cell_packings`, cell.csv)."""
     post, three = (json.loads((Path(out_dir) / f"{soil}-{name}.json").read_text()) for name in ("posterior", "check"))
     lines = [packings_line(result, seeds)]
     box = load_config(soil=soil).get("check_size_check_mm")
@@ -1213,6 +1233,10 @@ def record_packings(soil: str, result: dict, seeds: list[int], out_dir: Path = B
     if len(grown) > 1:
         ranges = {r: result[r]["target"] for r in SHEAR_RESPONSES if r in result}
         lines.append(packings_line(judged(grown, ranges), grown["seed"], "grown_box_packings", box))
+    from analysis.soil.cell import posterior_line       # the cell's module reads this one's
+    cell = posterior_line(soil, out_dir)
+    if cell:
+        lines.append(cell)
     return write_posterior(soil, post, three, f"./holes calibrate --soil {soil} --bench", path, "\n".join(lines))
 
 

@@ -29,7 +29,7 @@ from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS
 from analysis.soil.bench_calibration import (SHEAR_RESPONSES, in_parallel, load_config, mean_verdict, mm,
                                              overrides, posterior_mean, posterior_packings, scene_result, size_shift,
                                              target_ranges)
-from analysis.soil.shear import mohr_coulomb
+from analysis.soil.shear import fit_tests
 
 CELL_DIR = BENCH_DIR / "cell"
 SOILS = ("clay", "loam", "sand")
@@ -76,7 +76,7 @@ def cell_fit(result: dict) -> dict:
     (120, 3, 0.001, 5.0, 26.57)
     """
     tests = result["tests"]
-    fit = mohr_coulomb([t["sigma_at_peak_kpa"] for t in tests], [t["tau_peak_kpa"] for t in tests])
+    fit = fit_tests(tests)
     seed = int(re.search(r"-s(\d+)-", result["bed"]).group(1))
     return {"edge_mm": round(1000 * tests[0]["size_m"][0]), "seed": seed, "inertial": float(result["inertial"]),
             "c_kpa": fit["c_kpa"],
@@ -163,6 +163,37 @@ def verdicts(soil: str, cells: pd.DataFrame, sizes: pd.DataFrame) -> list[dict]:
                          "target_lo": ranges[r][0], "target_hi": ranges[r][1], "verdict": verdict["mean_verdict"],
                          "sized": sized_edge(sizes, r) == int(edge)})
     return rows
+
+
+def posterior_line(soil: str, bench_dir: Path = BENCH_DIR) -> str | None:
+    """The soil's cell reading (<bench_dir>/cell.csv) as its `[bench_posterior]` line `cell_packings`: per response
+    the verdict, mean and interval in the cell its size check points to, or in the largest cell, marked unsized,
+    where the check passes in none; None where the soil has no cell runs.
+
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> rows = [("c_kpa", 120, 6.91, 5.12, 8.7, "outside", True), ("phi_deg", 120, 25.6, 25.1, 26.1, "inside", False),
+    ...         ("phi_deg", 180, 25.5, 25.0, 26.0, "inside", False)]
+    >>> pd.DataFrame([dict(soil="clay", response=r, edge_mm=e, packings=3, mean=m, mean_lo=lo, mean_hi=hi,
+    ...               verdict=v, sized=z) for r, e, m, lo, hi, v, z in rows]).to_csv(d / "cell.csv", index=False)
+    >>> for part in posterior_line("clay", d).split(", phi"):
+    ...     print(part)
+    cell_packings = { c_kpa = "outside: 6.91 [5.12, 8.7] (120 mm cell, 3 packings)"
+    _deg = "unsized, inside: 25.5 [25, 26] (180 mm cell, 3 packings)" }
+    """
+    path = Path(bench_dir) / "cell.csv"
+    table = pd.read_csv(path) if path.exists() else pd.DataFrame(columns=["soil"])
+    table = table[table["soil"] == soil]
+    if table.empty:
+        return None
+    items = []
+    for r, t in table.groupby("response", sort=False):
+        sized = t[t["sized"].astype(bool)]
+        row = (sized if len(sized) else t[t["edge_mm"] == t["edge_mm"].max()]).iloc[0]
+        items.append(f'{r} = "{"" if len(sized) else "unsized, "}{row["verdict"]}: {row["mean"]:.3g} '
+                     f'[{row["mean_lo"]:.3g}, {row["mean_hi"]:.3g}] ({int(row["edge_mm"])} mm cell, '
+                     f'{int(row["packings"])} packings)"')
+    return "cell_packings = { " + ", ".join(items) + " }"
 
 
 def box_beside(soil: str, cells: pd.DataFrame, bench_dir: Path = BENCH_DIR) -> list[dict]:

@@ -1,4 +1,5 @@
-"""The direct shear box's Mohr-Coulomb fit (scripts/shear.py runs the box; no YADE here).
+"""The direct shear box's Mohr-Coulomb fit (scripts/shear.py runs the box, scripts/simple_shear.py the wall-free
+cell, fitted alike; no YADE here).
 
 τ_peak = c + σ·tan φ, least squares over the normal stresses, σ the normal stress the plane carries at the peak
 (the lid's load and the weight resting on the plane, over the sheared area), with the 95 % intervals of c and φ (Student t
@@ -36,9 +37,15 @@ def sheared_stress(test: dict) -> float:
     return plane_load(test) * length_mm / (length_mm - test["shift_at_peak_mm"])
 
 
+def peak_stress(test: dict) -> float:
+    """The normal stress a test's peak was read at (kPa): a shear box's on its sheared area (`sheared_stress`), a
+    simple shear cell's σzz at its peak (scripts/simple_shear.py), which has no area to lose."""
+    return test["sigma_at_peak_kpa"] if "sigma_at_peak_kpa" in test else sheared_stress(test)
+
+
 def fit_tests(tests: list[dict]) -> dict:
-    """The Mohr-Coulomb fit of a shear box's tests: each peak shear stress (the frames' push over the sheared area)
-    against the normal stress on the sheared area at that peak (`sheared_stress`).
+    """The Mohr-Coulomb fit of a shear box's (or simple shear cell's) tests: each peak shear stress (the frames' push
+    over the sheared area) against the normal stress at that peak (`peak_stress`).
 
     >>> def test(s, w=2.4):
     ...     return {"size_m": [0.15], "stress_kpa": s, "shift_at_peak_mm": 30.0, "tau_peak_kpa": 20 + 0.6 * (s + w) * 1.25,
@@ -46,8 +53,11 @@ def fit_tests(tests: list[dict]) -> dict:
     >>> r = fit_tests([test(s) for s in (50, 100, 200)])
     >>> round(r["c_kpa"], 2), round(r["phi_deg"], 2)
     (20.0, 30.96)
+    >>> cell = [{"stress_kpa": s, "sigma_at_peak_kpa": s + 0.1, "tau_peak_kpa": 5 + 0.5 * (s + 0.1)} for s in (50, 100, 200)]
+    >>> round(fit_tests(cell)["c_kpa"], 2)
+    5.0
     """
-    return mohr_coulomb([sheared_stress(t) for t in tests], [t["tau_peak_kpa"] for t in tests])
+    return mohr_coulomb([peak_stress(t) for t in tests], [t["tau_peak_kpa"] for t in tests])
 
 
 def mohr_coulomb(stress_kpa, tau_kpa) -> dict:
