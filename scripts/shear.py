@@ -35,7 +35,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.core.cli_types import folder, option  # noqa: E402
 from analysis.core.schema import ROOT, ConfigError, Field, digest
-from analysis.core.io import atomic_write  # noqa: E402
+from analysis.core.io import atomic_write, kept_each  # noqa: E402
 
 STRESS = Field(1.0, 1000.0, unit="kPa", meaning="normal stress on the sample")
 SPEED = Field(0.001, 0.2, unit="m/s", meaning="the upper half's shearing speed")
@@ -216,13 +216,8 @@ def main(argv=None) -> int:
         out = Path(a.out) if a.out else ROOT / "results/soils/shear"
         settings = settings_digest(test, a)
         parts = [out / f"{bed_path.stem}-{s:g}-{settings}.part.json" for s in stresses]
-        rows = []
-        for s, part in zip(stresses, parts):        # each finished normal stress kept: a stopped run resumes there
-            if part.exists():
-                rows.append(json.loads(part.read_text()))
-                continue
-            rows.append(run(bed_path, a.soil, s, a.speed, a.threads, test, remoulded=a.remoulded, preload_kpa=a.preload))
-            atomic_write(part, json.dumps(rows[-1]))
+        rows = kept_each(parts, lambda i: run(bed_path, a.soil, stresses[i], a.speed, a.threads, test,   # resumable
+                                              remoulded=a.remoulded, preload_kpa=a.preload))
     except (ConfigError, ValueError) as e:
         print(f"shear: {e}", file=sys.stderr)
         return 2

@@ -34,7 +34,7 @@ from analysis.core.config import SEED, THREADS, load_resolution  # noqa: E402
 from analysis.core.bed_spec import (BED_DIR, CELL_INERTIAL as INERTIAL,  # noqa: E402
                                     CELL_PACKED_FRACTION as PACKED_FRACTION, CELL_SETTLE_KPA as SETTLE_KPA, cell_key,
                                     mean_volume)
-from analysis.core.io import atomic_write, held  # noqa: E402
+from analysis.core.io import atomic_write, held, kept_each  # noqa: E402
 from analysis.core.schema import ROOT, ConfigError, Field, digest  # noqa: E402
 from analysis.core.soil_config import load_soil, parse_overrides, soil_with  # noqa: E402
 
@@ -273,13 +273,7 @@ def main(argv=None) -> int:
         settings = digest({"soil": a.soil, "test": dict(sorted(test.items())), "inertial": a.inertial,
                            "code": [p.read_text() for p in SCENE_SOURCES]})
         parts = [out / f"{path.stem}-{s:g}-{settings}.part.json" for s in a.stress]
-        rows = []
-        for s, part_path in zip(a.stress, parts):
-            if part_path.exists():
-                rows.append(json.loads(part_path.read_text()))
-                continue
-            rows.append(run(path, a.soil, s, a.inertial, a.threads, test, log))
-            atomic_write(part_path, json.dumps(rows[-1]))
+        rows = kept_each(parts, lambda i: run(path, a.soil, a.stress[i], a.inertial, a.threads, test, log))
     except (ConfigError, ValueError) as e:
         print(f"simple-shear: {e}", file=sys.stderr)
         return 2

@@ -92,6 +92,30 @@ def atomic_write(path: Path, data: str | bytes):
         raise
 
 
+def kept_each(paths: list[Path], make) -> list[dict]:
+    """make(i) for each of `paths` in turn, each result kept at its path (atomically, as JSON) as it finishes and read
+    back instead of made again where the path exists: a stopped run resumes at the first one it lacks (a bench
+    scene's tests, one per normal stress).
+
+    >>> import tempfile
+    >>> d, made = Path(tempfile.mkdtemp()), []
+    >>> def make(i):
+    ...     made.append(i)
+    ...     return {"i": i}
+    >>> kept_each([d / "a.json", d / "b.json"], make), kept_each([d / "a.json", d / "b.json"], make), made
+    ([{'i': 0}, {'i': 1}], [{'i': 0}, {'i': 1}], [0, 1])
+    """
+    import json
+    rows = []
+    for i, path in enumerate(paths):
+        if Path(path).exists():
+            rows.append(json.loads(Path(path).read_text()))
+            continue
+        rows.append(make(i))
+        atomic_write(path, json.dumps(rows[-1]))
+    return rows
+
+
 def atomic_csv(df: pd.DataFrame, path: Path, note: str | None = None):
     """CSV with an optional leading `# note` comment line (read back with `read_table`)."""
     body = df.to_csv(index=False)
