@@ -39,7 +39,6 @@ from analysis.core.schema import ROOT, ConfigError, Field, digest  # noqa: E402
 from analysis.core.soil_config import load_soil, parse_overrides, soil_with  # noqa: E402
 
 STRESS = Field(1.0, 1000.0, unit="kPa", meaning="vertical stress on the sample")
-EDGE = Field(0.04, 0.5, unit="m", meaning="the cell's edge")
 INERTIAL_FIELD = Field(1e-5, 1e-2, meaning="the inertial number the shear rate is set by")
 GAMMA_MAX = 1.0            # the shear strain a test ends at: past the peak (the box's peaks come late in its travel)
 CLOUD_FRACTION = 0.30      # solid fraction of the initial cloud
@@ -141,6 +140,8 @@ def packing(soil_name: str, resolution: str, edge: float, seed: int, threads: in
 
 
 def settle_packing(soil, res, edge: float, seed: int, threads: int, out: Path, log) -> Path:
+    """Compress a periodic cloud along z to SETTLE_KPA with the beds' settling material, settle it again at the
+    working modulus and save it to `out` with its porosity and the grain density that gives Table 2's bulk density."""
     O = start(threads)
     import numpy as np
     from yade import pack, utils
@@ -152,10 +153,9 @@ def settle_packing(soil, res, edge: float, seed: int, threads: int, out: Path, l
     sp = pack.SpherePack()
     sp.makeCloud((0, 0, 0), (edge, edge, h0), rMean=res.radius, rRelFuzz=res.spread, num=n, seed=seed, periodic=True)
     O.periodic = True
-    O.cell.setBox(edge, edge, h0)
     mat = O.materials.append(part.soil_material(soil, density=2650.0, young=soil.young / 4, cohesive=False))
     sp.toSimulation(material=mat)
-    O.cell.setBox(edge, edge, h0)
+    O.cell.setBox(edge, edge, h0)                        # after toSimulation, which sets a cell of its own
     servo = Servo(O, SETTLE_KPA * 1e3, 2.0, soil.young / 4 * res.radius, 2 * res.radius)
     O.engines = servo_engines(O, 0.4, servo, cohesion=False)
     O.dt = 0.5 * utils.PWaveTimeStep()
