@@ -278,7 +278,7 @@ def plot(read: dict, beside: pd.DataFrame, path: Path) -> Path:
     fig, axes = plt.subplots(1, len(read), figsize=(4.2 * len(read), 3.8), squeeze=False)
     for ax, (soil, cells) in zip(axes[0], read.items()):
         ranges = target_ranges(soil, load_config(soil=soil))
-        s = np.linspace(0, 230, 50)
+        s = np.linspace(0, 260, 50)
         lo = ranges["c_kpa"][0] + s * np.tan(np.radians(ranges["phi_deg"][0]))
         hi = ranges["c_kpa"][1] + s * np.tan(np.radians(ranges["phi_deg"][1]))
         ax.fill_between(s, lo, hi, color=SOIL_COLOURS.get(soil, "grey"), alpha=0.15, label="target's envelopes")
@@ -291,7 +291,7 @@ def plot(read: dict, beside: pd.DataFrame, path: Path) -> Path:
         for k, (name, t) in enumerate(boxes.groupby("test", sort=False)):
             ax.plot(t["stress_kpa"] * 0 + t["tau_peak_kpa"] / t["tau_over_sigma"], t["tau_peak_kpa"], "^--",
                     color=f"C{k + 3}", ms=5, label=name)
-        ax.set(title=soil, xlabel="normal stress at the peak, kPa", ylabel="peak shear stress, kPa", xlim=(0, 240))
+        ax.set(title=soil, xlabel="normal stress at the peak, kPa", ylabel="peak shear stress, kPa", xlim=(0, 260))
         ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=120)

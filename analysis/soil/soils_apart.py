@@ -61,7 +61,8 @@ def run(out_dir: Path = BENCH_DIR) -> list[Path]:
     """soils-apart.csv (the responses) and soils-apart-parameters.csv from every soil with a posterior and its check
     in out_dir; nothing when fewer than two soils have both. The responses are read where each is judged: the shear
     box's and the collapse test's over every packing the checks' box ran, the shear box's again over every packing
-    of the checks' box grown by half, and the cone over the check's packings (`read_in`)."""
+    of the checks' box grown by half, the wall-free cell's c and φ over every packing each cell edge ran
+    (analysis/soil/cell.py), and the cone over the check's packings (`read_in`)."""
     out_dir = Path(out_dir)
     soils = [s for s in SOILS if (out_dir / f"{s}-check.csv").exists() and (out_dir / f"{s}-posterior.json").exists()]
     if len(soils) < 2:
@@ -74,12 +75,20 @@ def run(out_dir: Path = BENCH_DIR) -> list[Path]:
         box = cfg[key]
         checks = {s: posterior_packings(s, box, out_dir, out_dir) for s in soils}
         tables.append(responses_apart(checks, targets, responses).assign(read_in=mm(box)))
+    from analysis.core.bed_spec import CELL_INERTIAL
+    from analysis.soil.cell import cell_packings
+    cells = {s: cell_packings(s, bench_dir=out_dir) for s in soils}
+    cells = {s: t[t["inertial"] == CELL_INERTIAL] for s, t in cells.items() if len(t)}
+    for edge in sorted({e for t in cells.values() for e in t["edge_mm"]}):     # the wall-free cell, each edge
+        at = {s: t[t["edge_mm"] == edge] for s, t in cells.items()}
+        tables.append(responses_apart(at, targets, SHEAR_RESPONSES).assign(read_in=f"cell {edge:g}"))
     cones = {s: pd.read_csv(out_dir / f"{s}-check.csv", comment="#") for s in soils}
     tables.append(responses_apart(cones, targets, ("cone_kpa",)).assign(read_in="cone"))
     paths = [out_dir / "soils-apart.csv", out_dir / "soils-apart-parameters.csv"]
     atomic_csv(pd.concat(tables).round(3), paths[0],
                "./holes calibration-report; per bench response, where it is read (read_in: the shear box, mm, over "
-               "every packing it ran at the posterior mean, the collapse test with the checks' box; the cone over the "
+               "every packing it ran at the posterior mean, the collapse test with the checks' box; the wall-free "
+               "cell of that edge, mm, over every packing it ran; the cone over the "
                "check's packings) and pair of soils, the difference of the packings' means, soil_2 − soil_1 (Welch 95 % "
                "interval), and whether the targets' ranges are disjoint")
     atomic_csv(parameters_apart(posteriors).round(4), paths[1],
