@@ -4,9 +4,9 @@
 
 The direct shear box's walls and frames reach a few grains into the sample, and at r = 6 mm a box is a few tens of
 grains across: its peaks fall as it grows (results/calibration/README.md). A laboratory's box holds the field
-soil's grains by the million. This cell is that limit at the model's grains: a cube periodic in x, y and z, so no
-grain meets a wall, sheared on horizontal planes (x moving with z) under a constant vertical stress, as the box
-shears its sample on its horizontal plane under the lid's load.
+soil's grains by the million, with no grain-scale walls. This cell has no walls at all at the model's grains: a cube
+periodic in x, y and z, sheared on horizontal planes (x moving with z) under a constant vertical stress, as the box
+shears its sample on its horizontal plane under the lid's load, but free to shear where it is weakest.
 
 Parts: packing (`packing`: a periodic cloud compressed along z alone, its sides held, as a bed's deposition
 compresses it under its own weight, with the settling material of scripts/beds.py to SETTLE_KPA, the bed's own
