@@ -1,11 +1,12 @@
 """The wall-free simple shear cell's reading of the soils (scripts/simple_shear.py runs the cell; no YADE here).
 
 Each soil's posterior mean (results/calibration/bench/<soil>-posterior.json) sheared in periodic cells of two edges,
-one the other grown by half, on several packings each (`./holes calibrate --soil S --bench --cell --seeds 1,2,3`,
-the runs kept in results/calibration/bench/cell/<soil>/): c and φ of each packing's Mohr–Coulomb fit (peak τ against
-σzz at the peak, analysis/soil/shear.py); the cell's size check by the shear box's rule (`size_shift`: the grown
-cell moves the mean less than the packings' SD in the smaller); each soil's c and φ in the smallest cell that passes
-against its target's range (`mean_verdict`); and each shear box's peak beside the cell's, per normal stress.
+one the other grown by half, on several packings each (`./holes calibrate --soil S --bench --size-check cell --seeds
+1,2,3`, the runs kept in results/calibration/bench/cell/<soil>/set-<hash>/): c and φ of each packing's Mohr–Coulomb
+fit (peak τ against σzz at the peak, analysis/soil/shear.py); the cell's size check by the shear box's rule
+(`size_shift`: the grown cell moves the mean less than the packings' SD in the smaller); each soil's c and φ in the
+smallest cell that passes against its target's range (`mean_verdict`); and each shear box's peak beside the cell's,
+per normal stress.
 Writes cell.csv, cell-size.csv, cell-rate.csv (the rate check: a cell sheared at half the rate), cell-box.csv
 and cell.png in results/calibration/bench/.
 """
@@ -24,15 +25,13 @@ from analysis.core.config import load_resolution
 from analysis.core.io import atomic_csv
 from analysis.core.runner import run_logged
 from analysis.core.schema import ROOT, digest
-from analysis.core.soil_config import load_soil
-from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS
+from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS, SOILS, equal_bonds, load_soil
 from analysis.soil.bench_calibration import (SHEAR_RESPONSES, in_parallel, load_config, mean_verdict, mm,
-                                             overrides, posterior_mean, posterior_packings, scene_result, size_shift,
+                                             posterior_mean, posterior_packings, rounded, scene_result, size_shift,
                                              target_ranges)
 from analysis.soil.shear import fit_tests
 
 CELL_DIR = BENCH_DIR / "cell"
-SOILS = ("clay", "loam", "sand")
 GROWTH = 1.5              # the size check grows the cell's edge by half
 
 
@@ -79,8 +78,7 @@ def cell_fit(result: dict) -> dict:
     fit = fit_tests(tests)
     seed = int(re.search(r"-s(\d+)-", result["bed"]).group(1))
     return {"edge_mm": round(1000 * tests[0]["size_m"][0]), "seed": seed, "inertial": float(result["inertial"]),
-            "c_kpa": fit["c_kpa"],
-            "phi_deg": fit["phi_deg"], **{float(t["stress_kpa"]): float(t["tau_peak_kpa"]) for t in tests}}
+            "c_kpa": fit["c_kpa"], "phi_deg": fit["phi_deg"], **{float(t["stress_kpa"]): float(t["tau_peak_kpa"]) for t in tests}}
 
 
 def cell_packings(soil: str, folder: Path = CELL_DIR, bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
@@ -119,9 +117,9 @@ def rate_table(cells: pd.DataFrame) -> pd.DataFrame:
 
 def posterior_overrides(soil: str, bench_dir: Path = BENCH_DIR) -> dict:
     """The scene's --test-set of the soil's posterior mean with the calibration's fixed parameters, as the scene
-    records them (`overrides` of the bench calibration, read back as numbers)."""
-    items = overrides(posterior_mean(soil, bench_dir), load_config(soil=soil).get("fixed"))
-    return dict(sorted({k: float(v) for k, v in (i.split("=") for i in items)}.items()))
+    records them (the bench calibration's `overrides`, as numbers)."""
+    fixed = load_config(soil=soil).get("fixed") or {}
+    return dict(sorted(equal_bonds({**fixed, **rounded(posterior_mean(soil, bench_dir))}).items()))
 
 
 def size_table(cells: pd.DataFrame) -> pd.DataFrame:
@@ -289,7 +287,7 @@ def plot(read: dict, beside: pd.DataFrame, path: Path) -> Path:
                         color=f"C{k}", label=f"cell {int(edge)} mm" if _ == t.index[0] else None)
         boxes = beside[(beside["soil"] == soil) & beside["test"].str.startswith("box")]
         for k, (name, t) in enumerate(boxes.groupby("test", sort=False)):
-            ax.plot(t["stress_kpa"] * 0 + t["tau_peak_kpa"] / t["tau_over_sigma"], t["tau_peak_kpa"], "^--",
+            ax.plot(t["tau_peak_kpa"] / t["tau_over_sigma"], t["tau_peak_kpa"], "^--",         # at the box's σ
                     color=f"C{k + 3}", ms=5, label=name)
         ax.set(title=soil, xlabel="normal stress at the peak, kPa", ylabel="peak shear stress, kPa", xlim=(0, 260))
         ax.legend(fontsize=7)
