@@ -62,7 +62,7 @@ def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None
         utils.box((far / 2, W + t, H / 2), (far / 2 + t, t, H / 2), fixed=True, material=smooth)])
     gate = O.bodies.append(utils.box((L + t, W / 2, H / 2), (t, W / 2, H / 2), fixed=True, material=smooth))
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True,
-                             extra=part.pressed_adhesion(O, soil))
+                             extra=part.bond_rules(O, soil))
     O.dt = 0.5 * utils.PWaveTimeStep()
     O.run(1, True)                                    # every contact bonded at the disturbed soil's strength
     O.bodies.erase(gate)

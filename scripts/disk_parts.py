@@ -154,7 +154,7 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
 
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[
         PyRunner(command=HOOK + "()", iterPeriod=1, label="hook"), *motion.engines,
-        *part.pressed_adhesion(O, soil)], avoid_self_mask=AVOID_SELF,
+        *part.bond_rules(O, soil)], avoid_self_mask=AVOID_SELF,
         gravity=tuple(x / k_density for x in part.GRAVITY))
     import builtins
     # PyRunner evaluates its command in YADE's global namespace, where YADE also puts every engine by its label

@@ -89,7 +89,7 @@ def run(bed_path: Path, soil_name: str, stress_kpa: float, speed: float = 0.05, 
     O.forces.setPermF(lid_id, (0, 0, -(preload_kpa * 1e3 * area if preload_kpa else load)))
     rows = []
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True,
-                             extra=part.pressed_adhesion(O, soil))
+                             extra=part.bond_rules(O, soil))
     for i in upper_ids:                                  # moved by their velocity, set once, not by forces
         O.bodies[i].dynamic = False
     O.dt = 0.5 * utils.PWaveTimeStep()

@@ -205,7 +205,7 @@ def run(packing_path: Path, soil_name: str, stress_kpa: float, inertial: float =
     goal = stress_kpa * 1e3
     shear_rate = inertial * math.sqrt(goal / meta["grain_density"]) / (2 * r)
     servo = Servo(O, goal, 2.0 * shear_rate + 0.5, soil.young * r, 2 * r)
-    O.engines = servo_engines(O, soil.damping, servo, cohesion=True, extra=part.pressed_adhesion(O, soil))
+    O.engines = servo_engines(O, soil.damping, servo, cohesion=True, extra=part.bond_rules(O, soil))
     O.dt = 0.5 * utils.PWaveTimeStep()
     O.run(1, True)                                    # the intact bonds on the packing's contacts
     part.bond_new_contacts(O, soil)

@@ -11,6 +11,9 @@ suction of a moist soil's water holds while it shears, and break only when pulle
 above 0): a contact holding less than the intact bond gains a bond of α times the compressive force it carries,
 kept at the most it was pressed to and at most the intact bond, as moist soil pressed together re-adheres and a
 loose heap of it does not (the pull-off force of elasto-plastic adhesive contacts grows with their preload).
+Bond stretch (`bond_stretch` above 0, ductile bonds): a bond pulled to its tensile strength holds it while it
+stretches by that many radii of the smaller grain, and parts beyond (YADE's CohFrictPhys.unpMax), as a moist soil's
+water bridge necks before it snaps; at 0 it parts once its strength is passed.
 """
 import math
 
@@ -122,30 +125,34 @@ def bond_new_contacts(O, soil):
             m.normalCohesion, m.shearCohesion = new.normal_cohesion, new.shear_cohesion
 
 
-def press_bonds(O, alpha: float, normal: float, shear: float, grain) -> int:
-    """One pass of the pressed re-adhesion (module doc) over the grain-grain contacts (`grain`: a bool per body id):
-    a contact whose bond is below the intact one (`normal` times r_min², YADE's Ip2) and that is compressed by a
-    force F gets α F as its bond when that is more than it holds, capped at the intact one; returns how many."""
+def press_bonds(O, alpha: float, normal: float, shear: float, grain, stretch: float = 0.0) -> int:
+    """One pass of the bond rules (module doc) over the grain-grain contacts (`grain`: a bool per body id). Pressed
+    re-adhesion (α > 0): a contact whose bond is below the intact one (`normal` times r_min², YADE's Ip2) and that is
+    compressed by a force F gets α F as its bond when that is more than it holds, capped at the intact one. Bond
+    stretch (`stretch` > 0): every bonded contact not yet given it may stretch `stretch` × r_min at its strength
+    before it parts. Returns how many bonds the pass made or raised."""
     n, size = 0, len(grain)
     for I in O.interactions:
         if not I.isReal or I.id1 >= size or I.id2 >= size or not (grain[I.id1] and grain[I.id2]):
             continue
         phys, geom = I.phys, I.geom
-        cap = normal * min(geom.refR1, geom.refR2) ** 2
-        if phys.normalAdhesion >= cap:
-            continue
-        bond = min(cap, alpha * phys.normalForce.dot(geom.normal))
-        if bond > phys.normalAdhesion:
-            phys.normalAdhesion, phys.shearAdhesion, phys.cohesionBroken = bond, bond * shear / normal, False
-            n += 1
+        r_min = min(geom.refR1, geom.refR2)
+        cap = normal * r_min ** 2
+        if alpha and phys.normalAdhesion < cap:
+            bond = min(cap, alpha * phys.normalForce.dot(geom.normal))
+            if bond > phys.normalAdhesion:
+                phys.normalAdhesion, phys.shearAdhesion, phys.cohesionBroken = bond, bond * shear / normal, False
+                n += 1
+        if stretch and phys.unpMax == 0 and phys.normalAdhesion > 0:
+            phys.unpMax = stretch * r_min
     return n
 
 
-def pressed_adhesion(O, soil, every: int = PRESS_EVERY) -> list:
-    """The engine of the pressed re-adhesion (module doc) when the soil has one (`pressed_adhesion` > 0), else none:
-    every `every` steps a pass of press_bonds over the soil's spheres. PyRunner evaluates its command in
-    YADE's global namespace: the pass is put there under a name no engine's label takes."""
-    if not soil.pressed_adhesion:
+def bond_rules(O, soil, every: int = PRESS_EVERY) -> list:
+    """The engine of the bond rules (module doc) when the soil has one (`pressed_adhesion` or `bond_stretch` above
+    0), else none: every `every` steps a pass of press_bonds over the soil's spheres. PyRunner evaluates its command
+    in YADE's global namespace: the pass is put there under a name no engine's label takes."""
+    if not (soil.pressed_adhesion or soil.bond_stretch):
         return []
     import builtins
     import numpy as np
@@ -158,7 +165,7 @@ def pressed_adhesion(O, soil, every: int = PRESS_EVERY) -> list:
         if len(grain) != len(O.bodies):    # the soil's grains, not a tool's steel spheres (a punch's or cone's tip);
             grain = np.array([b is not None and isinstance(b.shape, Sphere) and b.material.label == "soil"
                               for b in O.bodies], bool)     # found again only when bodies come or go
-        press_bonds(O, soil.pressed_adhesion, soil.normal_cohesion, soil.shear_cohesion, grain)
+        press_bonds(O, soil.pressed_adhesion, soil.normal_cohesion, soil.shear_cohesion, grain, soil.bond_stretch)
 
     builtins.holes_press_bonds = press
     return [PyRunner(command="holes_press_bonds()", iterPeriod=every, label="pressed")]

@@ -918,7 +918,7 @@ O.materials[mat].normalCohesion = O.materials[mat].shearCohesion = 0.0    # a ne
 fixed_one = O.materials.append(part.steel_material(soil)) if len(sys.argv) > 4 else mat   # a tool's steel sphere
 a = O.bodies.append(utils.sphere((0, 0, 0), 0.006, material=fixed_one, fixed=True))
 b = O.bodies.append(utils.sphere((0, 0, 0.011999), 0.006, material=mat))    # touching: 1 µm
-O.engines = part.engines(0.3, cohesion_on_new_contacts=True, gravity=(0, 0, 0), extra=part.pressed_adhesion(O, soil))
+O.engines = part.engines(0.3, cohesion_on_new_contacts=True, gravity=(0, 0, 0), extra=part.bond_rules(O, soil))
 O.dt = 0.2 * utils.PWaveTimeStep()
 for k in range(1, 41):                                  # pressed slowly: no overshoot past the press
     O.forces.setPermF(b, (0, 0, -press * k / 40))

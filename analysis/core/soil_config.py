@@ -24,9 +24,12 @@ SOIL_FIELDS = {
     "pressed_adhesion": Field(0.0, 5.0, meaning="a contact holding less than the intact bond gains a bond of this "
                               "times the greatest compressive force it has carried, up to the intact bond (moist soil "
                               "re-adheres where it is pressed together; 0: not at all)"),
+    "bond_stretch": Field(0.0, 1.0, meaning="how far a ductile bond held at its tensile strength stretches before it "
+                          "parts, in radii of the smaller grain (YADE's CohFrictPhys.unpMax over r_min), as a moist "
+                          "soil's water bridge necks before it snaps; 0: it parts once its strength is passed"),
 }
-SOIL_DEFAULTS = {"new_contact_cohesion": 1.0, "bond_fragile": 1, "pressed_adhesion": 0.0}   # optional in a soil
-# config; a run's id leaves them out
+# optional in a soil config; a run's id leaves them out
+SOIL_DEFAULTS = {"new_contact_cohesion": 1.0, "bond_fragile": 1, "pressed_adhesion": 0.0, "bond_stretch": 0.0}
 SOILS = ("clay", "loam", "sand")
 SOIL_COLOURS = {"clay": "tab:brown", "loam": "tab:olive", "sand": "tab:orange"}    # one colour a soil in every plot
 
@@ -49,6 +52,12 @@ class Soil:
     new_contact_cohesion: float = 1.0   # fraction of the intact bonds' strength a new contact gets
     bond_fragile: int = 1               # 1: bonds break when exceeded; 0: they slide and break only in tension
     pressed_adhesion: float = 0.0       # bond gained per newton of the greatest compression a weaker contact carried
+    bond_stretch: float = 0.0           # radii of r_min a ductile bond stretches at its strength before it parts
+
+    def __post_init__(self):
+        if self.bond_stretch > 0 and self.bond_fragile:
+            raise ConfigError(f"{self.name}: bond_stretch = {self.bond_stretch:g} with bond_fragile = 1: allowed "
+                              "bond_stretch 0 for fragile bonds (they part once exceeded), or bond_fragile = 0")
 
     @property
     def wet_density(self) -> float:

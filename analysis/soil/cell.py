@@ -8,7 +8,9 @@ fit (peak τ against σzz at the peak, analysis/soil/shear.py); the cell's size 
 smallest cell that passes against its target's range (`mean_verdict`); and each shear box's peak beside the cell's,
 per normal stress.
 Writes cell.csv, cell-size.csv, cell-rate.csv (the rate check: a cell sheared at half the rate), cell-box.csv
-and cell.png in results/calibration/bench/.
+and cell.png in results/calibration/bench/; and cell-levers.csv: what single contact parameters moved off the
+posterior do to the cell's c (the probes kept in results/calibration/bench/cell/<soil>/probes/<name>/, each run as
+`./holes simple-shear` with the posterior's --test-sets and one changed) beside what they cost the cone.
 """
 from __future__ import annotations
 
@@ -26,9 +28,9 @@ from analysis.core.io import atomic_csv
 from analysis.core.runner import run_logged
 from analysis.core.schema import ROOT, digest
 from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS, SOILS, equal_bonds, load_soil
-from analysis.soil.bench_calibration import (SHEAR_RESPONSES, in_parallel, load_config, mean_verdict, mm,
-                                             posterior_mean, posterior_packings, rounded, scene_result, size_shift,
-                                             target_ranges)
+from analysis.soil.bench_calibration import (SHEAR_RESPONSES, cone_path, in_parallel, load_config, mean_verdict,
+                                             mm, posterior_mean, posterior_packings, rounded, scene_result, size_shift,
+                                             surface_terms, target_ranges)
 from analysis.soil.shear import fit_tests
 
 CELL_DIR = BENCH_DIR / "cell"
@@ -232,10 +234,70 @@ def box_peaks(soil: str, box_mm, bench_dir: Path = BENCH_DIR) -> tuple[dict, dic
     return peaks, sigmas
 
 
+def levers(soil: str, cells: pd.DataFrame, folder: Path = CELL_DIR, bench_dir: Path = BENCH_DIR) -> list[dict]:
+    """Each probe of the soil (<folder>/<soil>/probes/<name>/: its posterior mean with some parameters changed, in a
+    cell of the posterior's) against the posterior on the same packing and cell: the shift in c and φ, and the
+    cone's shift, measured where the set's cone ran on the filter's cone bed (`cone_path`, packing 1) and from the
+    soil's cone plane (surfaces.csv) over the plane's terms. `cone_per_c` is the cone's shift per kPa of the cell's c
+    (measured, else the plane's), and `cone_at_c_floor` the posterior's cone (its check at the runs' grains) plus
+    that cost of lifting the cell's mean c to its target's floor, where the probe lifts it: a lever whose cone there
+    stays under Table 2's ceiling could lift c alone."""
+    path = Path(folder) / soil / "probes"
+    post_file = Path(bench_dir) / f"{soil}-posterior.json"
+    if not path.is_dir() or not post_file.exists() or cells.empty:
+        return []
+    cfg = load_config(soil=soil)
+    want, post = posterior_overrides(soil, bench_dir), rounded(posterior_mean(soil, bench_dir))
+    base = {(int(r["edge_mm"]), int(r["seed"])): r for _, r in cells.iterrows()}
+    planes = pd.read_csv(Path(bench_dir) / "surfaces.csv", comment="#")
+    toml = load_soil_posterior(soil)
+    cone_post = float(toml.get("cone_kpa", {}).get("mean", np.nan))
+    lo, hi = target_ranges(soil, {**cfg, "cone_target": True})["cone_kpa"] if "cone_check" in cfg else (np.nan, np.nan)
+    c_floor = target_ranges(soil, cfg)["c_kpa"][0]
+    c_mean = float(cells[cells["edge_mm"] == cells["edge_mm"].min()]["c_kpa"].mean())
+    rows = []
+    for f in sorted(path.glob("*/*.json")):
+        if f.name.endswith(".part.json"):
+            continue
+        result = json.loads(f.read_text())
+        changed = {k: v for k, v in result["overrides"].items() if want.get(k) != v and k != "shear_cohesion"}
+        fit = cell_fit(result)
+        ref = base.get((fit["edge_mm"], fit["seed"]))
+        if ref is None or fit["inertial"] != CELL_INERTIAL or not changed:
+            continue
+        fixed = cfg.get("fixed", {})
+        probe_cfg = {**cfg, "fixed": {**fixed, **{k: v for k, v in changed.items() if k in fixed}}}
+        params = {**post, **{k: v for k, v in changed.items() if k not in fixed}}
+        shift = {}
+        for response in ("cone_kpa", "collapse_deg"):       # the planes cover the posterior's own parameters only
+            plane = planes[(planes["soil"] == soil) & (planes["response"] == response)]
+            terms = surface_terms(pd.DataFrame([post, params]), fixed)
+            shift[response] = float(sum(plane.iloc[0][t] * (terms[t].iloc[1] - terms[t].iloc[0]) for t in terms)) \
+                if len(plane) and set(changed) <= set(post) else np.nan
+        cones = [json.loads(where.read_text())["cone_index_pa"] / 1e3 if where.exists() else np.nan
+                 for where in (cone_path(soil, post, cfg, bench_dir)[0], cone_path(soil, params, probe_cfg, bench_dir)[0])]
+        dc = fit["c_kpa"] - ref["c_kpa"]
+        measured = cones[1] - cones[0]
+        per_c = (measured if np.isfinite(measured) else shift["cone_kpa"]) / dc if dc > 0 else np.nan
+        rows.append({"soil": soil, "probe": f.parent.name, "changed": " ".join(f"{k}={v:g}" for k, v in changed.items()),
+                     "edge_mm": fit["edge_mm"], "seed": fit["seed"], "c_kpa": fit["c_kpa"], "c_shift": dc,
+                     "phi_deg": fit["phi_deg"], "phi_shift": fit["phi_deg"] - ref["phi_deg"],
+                     "cone_shift_measured": measured, "cone_shift_plane": shift["cone_kpa"], "cone_per_c": per_c,
+                     "collapse_shift_plane": shift["collapse_deg"],
+                     "cone_at_c_floor": cone_post + per_c * max(0.0, c_floor - c_mean), "cone_hi": hi, "cone_lo": lo})
+    return rows
+
+
+def load_soil_posterior(soil: str) -> dict:
+    """The soil's `[bench_posterior]` table (configs/soils/<soil>.toml)."""
+    from analysis.core.schema import read_toml
+    return read_toml(ROOT / "configs/soils" / f"{soil}.toml").get("bench_posterior", {})
+
+
 def run(folder: Path = CELL_DIR, bench_dir: Path = BENCH_DIR) -> list[Path]:
     """cell.csv, cell-size.csv, cell-rate.csv, cell-box.csv and cell.png in `bench_dir` from every soil's kept cell
     runs (at CELL_INERTIAL; the rate check's beside them); none where no soil has one."""
-    verdict_rows, size_tables, rate_tables, beside = [], [], [], []
+    verdict_rows, size_tables, rate_tables, beside, lever_rows = [], [], [], [], []
     read = {}
     for soil in SOILS:
         every = cell_packings(soil, folder, bench_dir)
@@ -251,6 +313,7 @@ def run(folder: Path = CELL_DIR, bench_dir: Path = BENCH_DIR) -> list[Path]:
             size_tables.append(sizes.assign(soil=soil))
         verdict_rows += verdicts(soil, cells, sizes)
         beside += box_beside(soil, cells, bench_dir)
+        lever_rows += levers(soil, cells, folder, bench_dir)
     if not read:
         return []
     bench_dir = Path(bench_dir)
@@ -263,6 +326,9 @@ def run(folder: Path = CELL_DIR, bench_dir: Path = BENCH_DIR) -> list[Path]:
     if rate_tables:
         paths.append(bench_dir / "cell-rate.csv")
         atomic_csv(pd.concat(rate_tables, ignore_index=True).round(4), paths[-1])
+    if lever_rows:
+        paths.append(bench_dir / "cell-levers.csv")
+        atomic_csv(pd.DataFrame(lever_rows).round(4), paths[-1])
     paths.append(plot(read, pd.DataFrame(beside), bench_dir / "cell.png"))
     return paths
 
