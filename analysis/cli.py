@@ -135,6 +135,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="calibrate bond, friction, new-contact cohesion and rolling friction on the shear box and the "
                         "collapse test (and the cone, where the soil's cone_target is set) with GrainLearning "
                         "(configs/bench_calibration.toml, configs/field/soil_targets.csv) instead")
+    p.add_argument("--config", default=None, metavar="TOML",
+                   help="with --bench: the bench settings (default configs/bench_calibration.toml; "
+                        "configs/bench_calibration_cell.toml: clay's filter in the wall-free cell, its tables in "
+                        "results/calibration/bench/cell-filter/)")
     p.add_argument("--cones", type=evaluation_ids, default=None,
                    help="with --bench: no calibration; the cone check of these finished evaluations of the soil "
                         "(ids of results/calibration/bench/<soil>/, comma-separated), --workers at a time: the cone "

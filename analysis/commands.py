@@ -58,8 +58,9 @@ def bench_checks_asked(args) -> list[str]:
 def cmd_calibrate(args) -> int:
     if args.bench:
         return cmd_calibrate_bench(args)
-    if bench_checks_asked(args):
-        print(f"calibrate: {bench_checks_asked(args)[0]}: allowed only with --bench (a check of the bench calibration)",
+    if bench_checks_asked(args) or args.config:
+        flag = (bench_checks_asked(args) or ["--config"])[0]
+        print(f"calibrate: {flag}: allowed only with --bench (a check of the bench calibration, or its settings)",
               file=sys.stderr)
         return 2
     from analysis.soil import calibrate
@@ -185,6 +186,18 @@ def size_checked(args, cfg: dict):
     return bench.size_check(args.soil, cfg, box=args.size_check, seeds=args.seeds).round(2)
 
 
+def bench_config(given: str | None) -> Path:
+    """The bench calibration's settings file: `--config`, else configs/bench_calibration.toml; a missing one is a
+    ConfigError naming the flag."""
+    from analysis.soil import bench_calibration as bench
+    if given is None:
+        return bench.CONFIG
+    path = Path(given) if Path(given).is_absolute() else ROOT / given
+    if not path.is_file():
+        raise ConfigError(f"--config {given}: no such file; allowed a bench config such as configs/bench_calibration.toml")
+    return path
+
+
 def cmd_calibrate_bench(args) -> int:
     """`calibrate --bench`: the soil's three contact parameters on its bench tests (GrainLearning), then the
     posterior's bench responses on the check packings."""
@@ -192,7 +205,7 @@ def cmd_calibrate_bench(args) -> int:
     from analysis.core.soil_config import load_soil
     from analysis.core.config import load_resolution
     try:
-        cfg = bench.load_config(soil=args.soil)
+        cfg = bench.load_config(bench_config(args.config), soil=args.soil)
         load_soil(args.soil), bench.load_targets(args.soil), load_resolution(cfg["resolution"])
         cfg["workers"] = args.workers or cfg["workers"]
     except ConfigError as e:
@@ -228,8 +241,8 @@ def cmd_calibrate_bench(args) -> int:
         print(table.to_string(index=False))
         return 0
     try:
-        post = bench.calibrate(args.soil, cfg)
-        check = bench.check(args.soil, post, cfg)
+        post = bench.calibrate(args.soil, cfg, bench.filter_dir(cfg))
+        check = bench.check(args.soil, post, cfg, bench.filter_dir(cfg))
     except RuntimeError as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1

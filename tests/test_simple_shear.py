@@ -163,3 +163,24 @@ def test_a_probe_reads_its_shift_in_c_against_the_posterior_on_its_packing_and_w
     assert row["cone_shift_plane"] == pytest.approx(200.0) and row["cone_per_c"] == pytest.approx(40.0)
     cone = cell.load_soil_posterior("clay")["cone_kpa"]["mean"]
     assert row["cone_at_c_floor"] == pytest.approx(cone + 40.0 * 15.0)
+
+
+def test_the_cell_config_lays_clays_cell_filter_over_the_bench_config_and_nothing_else(tmp_path, capsys):
+    """configs/bench_calibration_cell.toml: clay's filter shears in the 120 mm cell over six parameters (bond stretch
+    the sixth, last), its tables in bench/cell-filter/; loam keeps the box, with the stretch among its parameters; the
+    bench config itself is unchanged. A base that is not beside it is refused, and --config only with --bench."""
+    from pathlib import Path
+    from analysis.cli import main
+    cell_cfg = bench.ROOT / "configs/bench_calibration_cell.toml"
+    clay = bench.load_config(cell_cfg, soil="clay")
+    assert clay["shear_test"] == "cell" and list(clay["bounds"])[-1] == "bond_stretch"
+    assert clay["bounds"]["friction_deg"] == (3.0, 12.0) and clay["cone_target"] and clay["cone_screen_sd"] == 3
+    assert bench.filter_dir(clay) == bench.BENCH_DIR / "cell-filter"
+    loam = bench.load_config(cell_cfg, soil="loam")
+    assert loam.get("shear_test", "box") == "box" and "bond_stretch" in loam["bounds"]
+    assert "bond_stretch" not in bench.load_config(soil="clay")["bounds"]
+    (tmp_path / "v.toml").write_text('base = "elsewhere.toml"\n')
+    with pytest.raises(ConfigError, match="base = 'elsewhere.toml'.*allowed"):
+        bench.load_config(Path(tmp_path / "v.toml"))
+    assert main(["calibrate", "--soil", "clay", "--config", str(cell_cfg)]) == 2
+    assert "--config: allowed only with --bench" in capsys.readouterr().err

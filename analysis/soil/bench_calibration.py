@@ -40,12 +40,36 @@ UNTESTABLE = 3         # a bench scene's exit code when it stopped the test itse
 SCENES_VERSION = 3     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
 
 
+def laid_over(path: Path) -> dict:
+    """A bench config's tables; one naming a `base` config (a file beside it) is that config with its own tables laid
+    over it key by key, a table within a table likewise (a filter's variant that states only what differs).
+
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = (d / "a.toml").write_text("[bench]\nx = 1\ny = 2\n[soil_bounds.clay]\nf = [1, 2]\n")
+    >>> _ = (d / "b.toml").write_text('base = "a.toml"\n[bench]\ny = 3\n[soil_bounds.clay]\ng = [0, 1]\n')
+    >>> laid_over(d / "b.toml")
+    {'bench': {'x': 1, 'y': 3}, 'soil_bounds': {'clay': {'f': [1, 2], 'g': [0, 1]}}}
+    """
+    cfg = tomllib.loads(Path(path).read_text())
+    base = cfg.pop("base", None)
+    if base is None:
+        return cfg
+    if not isinstance(base, str) or not (Path(path).parent / base).is_file() or Path(base).name == Path(path).name:
+        raise ConfigError(f"{path}: base = {base!r}: allowed the name of another bench config beside it")
+
+    def over(a: dict, b: dict) -> dict:
+        return {**a, **{k: over(a[k], v) if isinstance(v, dict) and isinstance(a.get(k), dict) else v
+                        for k, v in b.items()}}
+    return over(laid_over(Path(path).parent / base), cfg)
+
+
 def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
     """The calibration's settings and its parameters' prior ranges, checked; with `soil`, the ranges its
     `[soil_bounds.<soil>]` table narrows replace the common ones, its `[soil_bench.<soil>]` settings the common
     [bench] ones and its `[soil_cone_check.<soil>]` ones the common [cone_check] ones."""
     from analysis.core.soil_config import SOIL_FIELDS, SOILS
-    cfg = tomllib.loads(Path(path).read_text())
+    cfg = laid_over(Path(path))
     bench, bounds, fixed = dict(cfg.get("bench", {})), dict(cfg.get("bounds", {})), cfg.get("fixed", {})
     per_soil = cfg.get("soil_bounds", {})
     cone = dict(cfg["cone_check"]) if "cone_check" in cfg else None
@@ -221,6 +245,17 @@ def shear_test_key(cfg: dict) -> dict:
     if cfg.get("shear_test", "box") == "box":
         return {}
     return {"shear_test": "cell", "cell_edge_mm": float(cfg["cell_edges_mm"][0])}
+
+
+def filter_dir(cfg: dict, out_dir: Path = BENCH_DIR) -> Path:
+    """Where the soil's filter keeps its evaluations and tables: `out_dir`, or its cell-filter/ folder for a filter
+    shearing in the wall-free cell (`shear_test_key`), so that the box-drawn posterior and the tables read from it
+    stand until the cell's filter has drawn its own.
+
+    >>> filter_dir({}, Path("b")), filter_dir({"shear_test": "cell", "cell_edges_mm": [120, 180]}, Path("b"))
+    (PosixPath('b'), PosixPath('b/cell-filter'))
+    """
+    return Path(out_dir) / "cell-filter" if shear_test_key(cfg) else Path(out_dir)
 
 
 def from_twin(scene: str, soil: str, seed: int, params: dict, cfg: dict, folder: Path, out_dir: Path) -> dict | None:
@@ -1095,11 +1130,12 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
     soils = [s for s in ("clay", "loam", "sand") if (Path(out_dir) / f"{s}.csv").exists()]
     if not soils:                     # no filter finished: the planes over the running ones' finished iterations
         return surfaces_report(out_dir)
-    names = list(load_config()["bounds"])
+    posts = {soil: json.loads((Path(out_dir) / f"{soil}-posterior.json").read_text()) for soil in soils}
+    names = [n for n in load_config()["bounds"] if any(n in post["mean"] for post in posts.values())]  # drawn ones
     fig, axes = plt.subplots(len(soils), len(names), figsize=(4 * len(names), 2.6 * len(soils)), squeeze=False)
     for i, soil in enumerate(soils):
         t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
-        post = json.loads((Path(out_dir) / f"{soil}-posterior.json").read_text())
+        post = posts[soil]
         last = t[t["weight_last"].notna()]
         for j, n in enumerate(names):
             ax = axes[i][j]
@@ -1473,6 +1509,15 @@ def shear_box_mm(data: dict | None) -> list[float] | None:
     return [round(v * 1e3, 3) for v in size] if size else None
 
 
+def drawn_prior(soil: str, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
+    """The soil's own prior its planes' filter drew over: its posterior's recorded `prior` (<out_dir>/<soil>-posterior.json),
+    else cfg's bounds (a filter still running). The planes are read in that prior, not in one configured since for
+    another filter (clay's in the cell)."""
+    path = Path(out_dir) / f"{soil}-posterior.json"
+    prior = json.loads(path.read_text()).get("prior") if path.exists() else None
+    return {k: tuple(map(float, v)) for k, v in prior.items()} if prior else dict(cfg["bounds"])
+
+
 def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> list[Path]:
     """Every calibrated soil's response surfaces over its filter's and check's evaluations, or over the iterations
     its running filter has finished (surfaces.csv), where they meet all its targets (the cone's too, where the
@@ -1495,11 +1540,12 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
         targets = load_targets(soil)
         if "cone_kpa" in set(surf.response):
             targets.loc["cone_kpa", ["lo", "hi"]] = cone_range(soil, own)
-        region = feasible_region(surf, targets, bounds, fixed=own["fixed"])
+        prior = drawn_prior(soil, own, out_dir)
+        region = feasible_region(surf, targets, {k: v for k, v in bounds.items() if k in prior}, fixed=own["fixed"])
         regions += [{"soil": soil, "parameter": k, "p05": v[0], "p50": v[1], "p95": v[2], "prior_share": region["share"]}
                     for k, v in region.items() if k != "share"]
-        deepest.append({"soil": soil, **deepest_point(surf, targets, own["bounds"], own["fixed"])})
-        profiles.append(margin_profile(surf, targets, own["bounds"], own["fixed"]).assign(soil=soil))
+        deepest.append({"soil": soil, **deepest_point(surf, targets, prior, own["fixed"])})
+        profiles.append(margin_profile(surf, targets, prior, own["fixed"]).assign(soil=soil))
     if not rows:
         return []
     paths = [Path(out_dir) / "surfaces.csv", Path(out_dir) / "feasible.csv", Path(out_dir) / "deepest.csv",
