@@ -41,7 +41,7 @@ SCENES_VERSION = 3     # raised whenever scripts/shear.py or scripts/collapse.py
 
 
 def laid_over(path: Path) -> dict:
-    """A bench config's tables; one naming a `base` config (a file beside it) is that config with its own tables laid
+    r"""A bench config's tables; one naming a `base` config (a file beside it) is that config with its own tables laid
     over it key by key, a table within a table likewise (a filter's variant that states only what differs).
 
     >>> import tempfile
