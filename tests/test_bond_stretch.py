@@ -33,10 +33,10 @@ for stretch in (0.0, 0.1):
     O.dt = 1e-6
     O.run(2, True)
     bond = O.interactions[a, b].phys.normalAdhesion
-    O.bodies[b].state.vel = Vector3(0.1, 0, 0)            # 0.1 um a step
+    O.bodies[b].state.vel = Vector3(1.0, 0, 0)            # 1 um a step
     held = 0.0
-    while O.interactions.has(a, b) and O.interactions[a, b].isReal and O.iter < 200000:
-        O.run(10, True)
+    while O.interactions.has(a, b) and O.interactions[a, b].isReal and O.iter < 20000:
+        O.run(2, True)
         if O.interactions.has(a, b) and O.interactions[a, b].isReal:
             held = max(held, O.interactions[a, b].phys.normalForce.norm())
     out[str(stretch)] = {{"gap_r": (O.bodies[b].state.pos[0] - 2 * r) / r, "held_n": held, "bond_n": bond}}

@@ -268,11 +268,11 @@ def levers(soil: str, cells: pd.DataFrame, folder: Path = CELL_DIR, bench_dir: P
         fixed = cfg.get("fixed", {})
         probe_cfg = {**cfg, "fixed": {**fixed, **{k: v for k, v in changed.items() if k in fixed}}}
         params = {**post, **{k: v for k, v in changed.items() if k not in fixed}}
+        step = surface_terms(pd.DataFrame([post, params]), fixed).diff().iloc[1]    # the planes' terms, moved
         shift = {}
         for response in ("cone_kpa", "collapse_deg"):       # the planes cover the posterior's own parameters only
             plane = planes[(planes["soil"] == soil) & (planes["response"] == response)]
-            terms = surface_terms(pd.DataFrame([post, params]), fixed)
-            shift[response] = float(sum(plane.iloc[0][t] * (terms[t].iloc[1] - terms[t].iloc[0]) for t in terms)) \
+            shift[response] = float(sum(plane.iloc[0][t] * step[t] for t in step.index)) \
                 if len(plane) and set(changed) <= set(post) else np.nan
         cones = [json.loads(where.read_text())["cone_index_pa"] / 1e3 if where.exists() else np.nan
                  for where in (cone_path(soil, post, cfg, bench_dir)[0], cone_path(soil, params, probe_cfg, bench_dir)[0])]
