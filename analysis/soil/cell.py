@@ -34,6 +34,7 @@ from analysis.soil.bench_calibration import (SHEAR_RESPONSES, cone_path, in_para
 from analysis.soil.shear import fit_tests
 
 CELL_DIR = BENCH_DIR / "cell"
+UNMEASURED = -200.0       # kPa: where cell-levers.png draws a probe whose cone shift is neither measured nor planed
 GROWTH = 1.5              # the size check grows the cell's edge by half
 
 
@@ -284,7 +285,8 @@ def levers(soil: str, cells: pd.DataFrame, folder: Path = CELL_DIR, bench_dir: P
                      "phi_deg": fit["phi_deg"], "phi_shift": fit["phi_deg"] - ref["phi_deg"],
                      "cone_shift_measured": measured, "cone_shift_plane": shift["cone_kpa"], "cone_per_c": per_c,
                      "collapse_shift_plane": shift["collapse_deg"],
-                     "cone_at_c_floor": cone_post + per_c * max(0.0, c_floor - c_mean), "cone_hi": hi, "cone_lo": lo})
+                     "cone_at_c_floor": cone_post + per_c * max(0.0, c_floor - c_mean), "cone_hi": hi, "cone_lo": lo,
+                     "cell_c_mean": c_mean, "c_floor": c_floor, "cone_posterior": cone_post})
     return rows
 
 
@@ -329,8 +331,47 @@ def run(folder: Path = CELL_DIR, bench_dir: Path = BENCH_DIR) -> list[Path]:
     if lever_rows:
         paths.append(bench_dir / "cell-levers.csv")
         atomic_csv(pd.DataFrame(lever_rows).round(4), paths[-1])
+        paths.append(levers_plot(pd.DataFrame(lever_rows), bench_dir / "cell-levers.png"))
     paths.append(plot(read, pd.DataFrame(beside), bench_dir / "cell.png"))
     return paths
+
+
+def levers_plot(levers_table: pd.DataFrame, path: Path) -> Path:
+    """Per soil: each probe's shift in the cell's c against the cone's shift (measured, else its plane's; a probe with
+    neither on a strip below), and the corner where the cells' mean c reaches the target's floor with the cone under
+    Table 2's ceiling."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    soils = list(dict.fromkeys(levers_table["soil"]))
+    fig, axes = plt.subplots(1, len(soils), figsize=(5.5 * len(soils), 4.4), squeeze=False)
+    for ax, soil in zip(axes[0], soils):
+        t = levers_table[levers_table["soil"] == soil]
+        first = t.iloc[0]
+        need, room = first["c_floor"] - first["cell_c_mean"], first["cone_hi"] - first["cone_posterior"]
+        cone = t["cone_shift_measured"].where(t["cone_shift_measured"].notna(), t["cone_shift_plane"])
+        ax.add_patch(plt.Rectangle((need, UNMEASURED + 50), 1e3, room - UNMEASURED - 50, color="tab:green", alpha=0.12,
+                                   label="c at its floor, cone under Table 2 + 15 %"))
+        for (_, row), y in zip(t.iterrows(), cone):
+            mark = "o" if np.isfinite(row["cone_shift_measured"]) else "s" if np.isfinite(y) else "x"
+            y = y if np.isfinite(y) else UNMEASURED
+            ax.plot(row["c_shift"], y, mark, color="k" if mark == "o" else "0.5")
+            ax.annotate(row["changed"].replace("normal_cohesion", "bond").replace("new_contact_cohesion", "share"),
+                        (row["c_shift"], y), fontsize=6, xytext=(3, 3), textcoords="offset points")
+        ax.axhline(0, color="0.7", lw=0.5), ax.axvline(0, color="0.7", lw=0.5)
+        ax.axhspan(UNMEASURED - 50, UNMEASURED + 50, color="0.9")
+        ax.text(0.99, UNMEASURED - 40, "cone not measured", fontsize=7, ha="right", transform=ax.get_yaxis_transform())
+        top = max(float(np.nanmax(cone.to_numpy(float))), room) if cone.notna().any() else room
+        ax.set(xlim=(min(-5.0, t["c_shift"].min() - 1), max(need, t["c_shift"].max()) + 2), ylim=(UNMEASURED - 50, top + 100),
+               xlabel="shift in the cell's c, kPa (packing 1)",
+               ylabel="shift in the cone, kPa (o measured, s its plane, x none)")
+        ax.set_title(f"{soil}: one parameter off the posterior (cell c {first['cell_c_mean']:.1f} kPa, "
+                     f"cone {first['cone_posterior']:.0f} kPa)", fontsize=8)
+        ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
 
 
 def plot(read: dict, beside: pd.DataFrame, path: Path) -> Path:
