@@ -40,7 +40,7 @@ UNTESTABLE = 3         # a bench scene's exit code when it stopped the test itse
 SCENES_VERSION = 3     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
 
 
-def laid_over(path: Path) -> dict:
+def laid_over(path: Path, seen: tuple = ()) -> dict:
     r"""A bench config's tables; one naming a `base` config (a file beside it) is that config with its own tables laid
     over it key by key, a table within a table likewise (a filter's variant that states only what differs).
 
@@ -55,13 +55,16 @@ def laid_over(path: Path) -> dict:
     base = cfg.pop("base", None)
     if base is None:
         return cfg
-    if not isinstance(base, str) or not (Path(path).parent / base).is_file() or Path(base).name == Path(path).name:
-        raise ConfigError(f"{path}: base = {base!r}: allowed the name of another bench config beside it")
+    chain = (*seen, Path(path).resolve())
+    if not isinstance(base, str) or not (Path(path).parent / base).is_file() or \
+            (Path(path).parent / base).resolve() in chain:
+        raise ConfigError(f"{path}: base = {base!r}: allowed the name of another bench config beside it, not one "
+                          "laid over this one")
 
     def over(a: dict, b: dict) -> dict:
         return {**a, **{k: over(a[k], v) if isinstance(v, dict) and isinstance(a.get(k), dict) else v
                         for k, v in b.items()}}
-    return over(laid_over(Path(path).parent / base), cfg)
+    return over(laid_over(Path(path).parent / base, chain), cfg)
 
 
 def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
