@@ -241,8 +241,9 @@ def cmd_calibrate_bench(args) -> int:
         print(table.to_string(index=False))
         return 0
     try:
-        post = bench.calibrate(args.soil, cfg, bench.filter_dir(cfg))
-        check = bench.check(args.soil, post, cfg, bench.filter_dir(cfg))
+        out_dir = bench.filter_dir(cfg)
+        post = bench.calibrate(args.soil, cfg, out_dir)
+        check = bench.check(args.soil, post, cfg, out_dir)
     except RuntimeError as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1

@@ -139,12 +139,14 @@ def test_the_filter_takes_the_cell_as_its_shear_test_where_the_bench_says_so(tmp
 def test_a_probe_reads_its_shift_in_c_against_the_posterior_on_its_packing_and_what_it_costs_the_cone(tmp_path):
     """A probe doubling the bond lifts the cell's c from 5 to 10 kPa on packing 1; the cone's plane charges 2 kPa per
     kPa of bond, so 200 kPa of cone for 5 of c, 40 per kPa, and lifting the cells' mean c (5) to clay's floor (20)
-    costs 600 kPa over the posterior's cone. A probe of another packing than the posterior's runs is left out."""
+    costs 600 kPa over the posterior's cone (its check's, 450). A probe of another packing than the posterior's runs
+    is left out."""
     bench_dir, folder = tmp_path / "bench", tmp_path / "cells"
     bench_dir.mkdir()
     post = {"normal_cohesion": 1e5, "friction_deg": 10.0, "pressed_adhesion": 0.1, "rolling_friction": 0.2,
             "damping": 0.1}
     (bench_dir / "clay-posterior.json").write_text(json.dumps({"mean": post}))
+    (bench_dir / "clay-check.json").write_text(json.dumps({"cone_kpa": {"mean": 450.0}}))
     terms = ["bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping", "pressed_adhesion"]
     pd.DataFrame([{"soil": "clay", "response": r, "intercept": 0.0, **{t: 0.0 for t in terms}, "bond_kpa": b}
                   for r, b in (("cone_kpa", 2.0), ("collapse_deg", 0.0))]).to_csv(bench_dir / "surfaces.csv", index=False)
@@ -161,8 +163,7 @@ def test_a_probe_reads_its_shift_in_c_against_the_posterior_on_its_packing_and_w
     assert row["changed"] == "normal_cohesion=200000"
     assert row["c_shift"] == pytest.approx(5.0) and row["phi_shift"] == pytest.approx(0.0, abs=1e-9)
     assert row["cone_shift_plane"] == pytest.approx(200.0) and row["cone_per_c"] == pytest.approx(40.0)
-    cone = cell.load_soil_posterior("clay")["cone_kpa"]["mean"]
-    assert row["cone_at_c_floor"] == pytest.approx(cone + 40.0 * 15.0)
+    assert row["cone_at_c_floor"] == pytest.approx(450.0 + 40.0 * 15.0)
 
 
 def test_the_cell_config_lays_clays_cell_filter_over_the_bench_config_and_nothing_else(tmp_path, capsys):

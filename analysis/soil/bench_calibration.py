@@ -1133,12 +1133,11 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
     soils = [s for s in ("clay", "loam", "sand") if (Path(out_dir) / f"{s}.csv").exists()]
     if not soils:                     # no filter finished: the planes over the running ones' finished iterations
         return surfaces_report(out_dir)
-    posts = {soil: json.loads((Path(out_dir) / f"{soil}-posterior.json").read_text()) for soil in soils}
-    names = [n for n in load_config()["bounds"] if any(n in post["mean"] for post in posts.values())]  # drawn ones
+    names = list(load_config()["bounds"])
     fig, axes = plt.subplots(len(soils), len(names), figsize=(4 * len(names), 2.6 * len(soils)), squeeze=False)
     for i, soil in enumerate(soils):
         t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
-        post = posts[soil]
+        post = json.loads((Path(out_dir) / f"{soil}-posterior.json").read_text())
         last = t[t["weight_last"].notna()]
         for j, n in enumerate(names):
             ax = axes[i][j]
@@ -1512,15 +1511,6 @@ def shear_box_mm(data: dict | None) -> list[float] | None:
     return [round(v * 1e3, 3) for v in size] if size else None
 
 
-def drawn_prior(soil: str, cfg: dict, out_dir: Path = BENCH_DIR) -> dict:
-    """The soil's own prior its planes' filter drew over: its posterior's recorded `prior` (<out_dir>/<soil>-posterior.json),
-    else cfg's bounds (a filter still running). The planes are read in that prior, not in one configured since for
-    another filter (clay's in the cell)."""
-    path = Path(out_dir) / f"{soil}-posterior.json"
-    prior = json.loads(path.read_text()).get("prior") if path.exists() else None
-    return {k: tuple(map(float, v)) for k, v in prior.items()} if prior else dict(cfg["bounds"])
-
-
 def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> list[Path]:
     """Every calibrated soil's response surfaces over its filter's and check's evaluations, or over the iterations
     its running filter has finished (surfaces.csv), where they meet all its targets (the cone's too, where the
@@ -1543,12 +1533,11 @@ def surfaces_report(out_dir: Path = BENCH_DIR, bounds: dict | None = None) -> li
         targets = load_targets(soil)
         if "cone_kpa" in set(surf.response):
             targets.loc["cone_kpa", ["lo", "hi"]] = cone_range(soil, own)
-        prior = drawn_prior(soil, own, out_dir)
-        region = feasible_region(surf, targets, {k: v for k, v in bounds.items() if k in prior}, fixed=own["fixed"])
+        region = feasible_region(surf, targets, bounds, fixed=own["fixed"])
         regions += [{"soil": soil, "parameter": k, "p05": v[0], "p50": v[1], "p95": v[2], "prior_share": region["share"]}
                     for k, v in region.items() if k != "share"]
-        deepest.append({"soil": soil, **deepest_point(surf, targets, prior, own["fixed"])})
-        profiles.append(margin_profile(surf, targets, prior, own["fixed"]).assign(soil=soil))
+        deepest.append({"soil": soil, **deepest_point(surf, targets, own["bounds"], own["fixed"])})
+        profiles.append(margin_profile(surf, targets, own["bounds"], own["fixed"]).assign(soil=soil))
     if not rows:
         return []
     paths = [Path(out_dir) / "surfaces.csv", Path(out_dir) / "feasible.csv", Path(out_dir) / "deepest.csv",

@@ -28,9 +28,9 @@ from analysis.core.io import atomic_csv
 from analysis.core.runner import run_logged
 from analysis.core.schema import ROOT, digest
 from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS, SOILS, equal_bonds, load_soil
-from analysis.soil.bench_calibration import (SHEAR_RESPONSES, cone_path, in_parallel, load_config, mean_verdict,
-                                             mm, posterior_mean, posterior_packings, rounded, scene_result, size_shift,
-                                             surface_terms, target_ranges)
+from analysis.soil.bench_calibration import (SHEAR_RESPONSES, cone_path, cone_range, in_parallel, load_config,
+                                             mean_verdict, mm, posterior_mean, posterior_packings, rounded,
+                                             scene_result, size_shift, surface_terms, target_ranges)
 from analysis.soil.shear import fit_tests
 
 CELL_DIR = BENCH_DIR / "cell"
@@ -240,7 +240,7 @@ def levers(soil: str, cells: pd.DataFrame, folder: Path = CELL_DIR, bench_dir: P
     cell of the posterior's) against the posterior on the same packing and cell: the shift in c and φ, and the
     cone's shift, measured where the set's cone ran on the filter's cone bed (`cone_path`, packing 1) and from the
     soil's cone plane (surfaces.csv) over the plane's terms. `cone_per_c` is the cone's shift per kPa of the cell's c
-    (measured, else the plane's), and `cone_at_c_floor` the posterior's cone (its check at the runs' grains) plus
+    (measured, else the plane's), and `cone_at_c_floor` the posterior's cone (its check, <soil>-check.json) plus
     that cost of lifting the cell's mean c to its target's floor, where the probe lifts it: a lever whose cone there
     stays under Table 2's ceiling could lift c alone."""
     path = Path(folder) / soil / "probes"
@@ -251,9 +251,10 @@ def levers(soil: str, cells: pd.DataFrame, folder: Path = CELL_DIR, bench_dir: P
     want, post = posterior_overrides(soil, bench_dir), rounded(posterior_mean(soil, bench_dir))
     base = {(int(r["edge_mm"]), int(r["seed"])): r for _, r in cells.iterrows()}
     planes = pd.read_csv(Path(bench_dir) / "surfaces.csv", comment="#")
-    toml = load_soil_posterior(soil)
-    cone_post = float(toml.get("cone_kpa", {}).get("mean", np.nan))
-    lo, hi = target_ranges(soil, {**cfg, "cone_target": True})["cone_kpa"] if "cone_check" in cfg else (np.nan, np.nan)
+    check = Path(bench_dir) / f"{soil}-check.json"
+    cone_post = float(json.loads(check.read_text()).get("cone_kpa", {}).get("mean", np.nan)) if check.exists() else np.nan
+    lo, hi = cone_range(soil, cfg) if "cone_check" in cfg else (np.nan, np.nan)
+    fixed = cfg.get("fixed", {})
     c_floor = target_ranges(soil, cfg)["c_kpa"][0]
     c_mean = float(cells[cells["edge_mm"] == cells["edge_mm"].min()]["c_kpa"].mean())
     rows = []
@@ -266,7 +267,6 @@ def levers(soil: str, cells: pd.DataFrame, folder: Path = CELL_DIR, bench_dir: P
         ref = base.get((fit["edge_mm"], fit["seed"]))
         if ref is None or fit["inertial"] != CELL_INERTIAL or not changed:
             continue
-        fixed = cfg.get("fixed", {})
         probe_cfg = {**cfg, "fixed": {**fixed, **{k: v for k, v in changed.items() if k in fixed}}}
         params = {**post, **{k: v for k, v in changed.items() if k not in fixed}}
         step = surface_terms(pd.DataFrame([post, params]), fixed).diff().iloc[1]    # the planes' terms, moved
@@ -288,12 +288,6 @@ def levers(soil: str, cells: pd.DataFrame, folder: Path = CELL_DIR, bench_dir: P
                      "cone_at_c_floor": cone_post + per_c * max(0.0, c_floor - c_mean), "cone_hi": hi, "cone_lo": lo,
                      "cell_c_mean": c_mean, "c_floor": c_floor, "cone_posterior": cone_post})
     return rows
-
-
-def load_soil_posterior(soil: str) -> dict:
-    """The soil's `[bench_posterior]` table (configs/soils/<soil>.toml)."""
-    from analysis.core.schema import read_toml
-    return read_toml(ROOT / "configs/soils" / f"{soil}.toml").get("bench_posterior", {})
 
 
 def run(folder: Path = CELL_DIR, bench_dir: Path = BENCH_DIR) -> list[Path]:
