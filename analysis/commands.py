@@ -223,7 +223,7 @@ def cmd_calibrate_bench(args) -> int:
         checks = {"--size-check": lambda: size_checked(args, cfg),
                   "--cones": lambda: bench.cones(args.soil, args.cones, cfg, workers=cfg["workers"],
                                                 runs_grains=args.runs_grains),
-                  "--probe": lambda: bench.probes(args.soil, args.probe, cfg),
+                  "--probe": lambda: bench.probes(args.soil, args.probe, cfg, bench.filter_dir(cfg)),
                   "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds or [1], cfg,
                                                                  workers=cfg["workers"]).round(2),
                   "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg)).T,
@@ -247,7 +247,8 @@ def cmd_calibrate_bench(args) -> int:
     except RuntimeError as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1
-    bench.write_posterior(args.soil, post, check, f"./holes calibrate --soil {args.soil} --bench")
+    command = f"./holes calibrate --soil {args.soil} --bench" + (f" --config {args.config}" if args.config else "")
+    bench.write_posterior(args.soil, post, check, command)
     bench.report()
     print(f"calibrate {args.soil}: the posterior mean on packings {', '.join(map(str, cfg['check_seeds']))}: "
           f"{bench.check_status(check)} (configs/soils/{args.soil}.toml [bench_posterior])")

@@ -10,7 +10,11 @@ suction of a moist soil's water holds while it shears, and break only when pulle
 (`momentRotationLaw`, alphaKr, etaRoll) stands in for grain angularity. Pressed re-adhesion (`pressed_adhesion` α
 above 0): a contact holding less than the intact bond gains a bond of α times the compressive force it carries,
 kept at the most it was pressed to and at most the intact bond, as moist soil pressed together re-adheres and a
-loose heap of it does not (the pull-off force of elasto-plastic adhesive contacts grows with their preload).
+loose heap of it does not (the pull-off force of elasto-plastic adhesive contacts grows with their preload). With
+an onset (`adhesion_onset` above 0, a pressure: times r_min² a force) only a contact compressed beyond it re-adheres,
+as a moist contact re-adheres once it yields plastically (Tomas's contact consolidation), so a heap's light contacts
+stay as they were while soil pressed by a tool or a confining stress re-adheres; the press must hold over two of
+the rule's passes, 20 steps apart, longer than a grain's impact lasts, so grains striking one another do not bond.
 Bond stretch (`bond_stretch` above 0, ductile bonds): a bond pulled to its tensile strength holds it while it
 stretches by that many radii of the smaller grain, and parts beyond (YADE's CohFrictPhys.unpMax), as a moist soil's
 water bridge necks before it snaps; at 0 it parts once its strength is passed.
@@ -125,13 +129,16 @@ def bond_new_contacts(O, soil):
             m.normalCohesion, m.shearCohesion = new.normal_cohesion, new.shear_cohesion
 
 
-def press_bonds(O, alpha: float, normal: float, shear: float, grain, stretch: float = 0.0) -> int:
+def press_bonds(O, alpha: float, normal: float, shear: float, grain, stretch: float = 0.0, onset: float = 0.0,
+                held: set | None = None) -> int:
     """One pass of the bond rules (module doc) over the grain-grain contacts (`grain`: a bool per body id). Pressed
     re-adhesion (α > 0): a contact whose bond is below the intact one (`normal` times r_min², YADE's Ip2) and that is
-    compressed by a force F gets α F as its bond when that is more than it holds, capped at the intact one. Bond
-    stretch (`stretch` > 0): every bonded contact not yet given it may stretch `stretch` × r_min at its strength
-    before it parts. Returns how many bonds the pass made or raised."""
-    n, size = 0, len(grain)
+    compressed by a force F gets α F as its bond when that is more than it holds, capped at the intact one. With an
+    `onset` only a contact compressed by more than onset × r_min² at this pass and at the one before (its pair in
+    `held`, which the pass then replaces with this pass's) re-adheres: a grain's impact lasts less than a pass's
+    interval. Bond stretch (`stretch` > 0): every bonded contact not yet given it may stretch `stretch` × r_min at its
+    strength before it parts. Returns how many bonds the pass made or raised."""
+    n, size, now = 0, len(grain), set()
     for I in O.interactions:
         if not I.isReal or I.id1 >= size or I.id2 >= size or not (grain[I.id1] and grain[I.id2]):
             continue
@@ -139,12 +146,23 @@ def press_bonds(O, alpha: float, normal: float, shear: float, grain, stretch: fl
         r_min = min(geom.refR1, geom.refR2)
         cap = normal * r_min ** 2
         if alpha and phys.normalAdhesion < cap:
-            bond = min(cap, alpha * phys.normalForce.dot(geom.normal))
+            pressed = phys.normalForce.dot(geom.normal)
+            if onset:
+                if pressed <= onset * r_min ** 2:
+                    pressed = 0.0
+                else:
+                    now.add((I.id1, I.id2))
+                    if held is not None and (I.id1, I.id2) not in held:
+                        pressed = 0.0
+            bond = min(cap, alpha * pressed)
             if bond > phys.normalAdhesion:
                 phys.normalAdhesion, phys.shearAdhesion, phys.cohesionBroken = bond, bond * shear / normal, False
                 n += 1
         if stretch and phys.unpMax == 0 and phys.normalAdhesion > 0:
             phys.unpMax = stretch * r_min
+    if held is not None:
+        held.clear()
+        held.update(now)
     return n
 
 
@@ -158,14 +176,15 @@ def bond_rules(O, soil, every: int = PRESS_EVERY) -> list:
     import numpy as np
     from yade import PyRunner, Sphere
 
-    grain = np.zeros(0, bool)
+    grain, held = np.zeros(0, bool), set()
 
     def press():
         nonlocal grain
         if len(grain) != len(O.bodies):    # the soil's grains, not a tool's steel spheres (a punch's or cone's tip);
             grain = np.array([b is not None and isinstance(b.shape, Sphere) and b.material.label == "soil"
                               for b in O.bodies], bool)     # found again only when bodies come or go
-        press_bonds(O, soil.pressed_adhesion, soil.normal_cohesion, soil.shear_cohesion, grain, soil.bond_stretch)
+        press_bonds(O, soil.pressed_adhesion, soil.normal_cohesion, soil.shear_cohesion, grain, soil.bond_stretch,
+                    soil.adhesion_onset, held)
 
     builtins.holes_press_bonds = press
     return [PyRunner(command="holes_press_bonds()", iterPeriod=every, label="pressed")]

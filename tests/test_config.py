@@ -231,6 +231,8 @@ def test_pressed_re_adhesion_is_off_unless_set_and_leaves_a_runs_id_as_it_was():
     assert "pressed_adhesion" not in before["soil"]
     assert plan("clay", "validation_medium", seed=1, overrides={"pressed_adhesion": 0.0})["id"] == before["id"]
     assert plan("clay", "validation_medium", seed=1, overrides={"pressed_adhesion": 0.2})["id"] != before["id"]
+    assert load_soil("clay").adhesion_onset == 0.0 and "adhesion_onset" not in before["soil"]     # nor its onset
+    assert plan("clay", "validation_medium", seed=1, overrides={"adhesion_onset": 0.0})["id"] == before["id"]
     with pytest.raises(ConfigError, match=r"pressed_adhesion = 7.*out of range.*allowed"):
         soil_with(load_soil("clay"), {"pressed_adhesion": 7})
 

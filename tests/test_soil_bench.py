@@ -910,12 +910,12 @@ boot(1)
 from yade import O, utils
 from analysis.core.soil_config import load_soil, soil_with
 from scripts import soil as part
-alpha, press, pull = map(float, sys.argv[1:4])
+alpha, press, pull, onset = map(float, sys.argv[1:5])
 soil = soil_with(load_soil("clay"), {"normal_cohesion": 176e3, "shear_cohesion": 176e3, "bond_fragile": 0,
-                                     "new_contact_cohesion": 0.0, "pressed_adhesion": alpha})
+                                     "new_contact_cohesion": 0.0, "pressed_adhesion": alpha, "adhesion_onset": onset})
 mat = O.materials.append(part.soil_material(soil, density=2650.0))
 O.materials[mat].normalCohesion = O.materials[mat].shearCohesion = 0.0    # a new contact: no bond of its own
-fixed_one = O.materials.append(part.steel_material(soil)) if len(sys.argv) > 4 else mat   # a tool's steel sphere
+fixed_one = O.materials.append(part.steel_material(soil)) if len(sys.argv) > 5 else mat   # a tool's steel sphere
 a = O.bodies.append(utils.sphere((0, 0, 0), 0.006, material=fixed_one, fixed=True))
 b = O.bodies.append(utils.sphere((0, 0, 0.011999), 0.006, material=mat))    # touching: 1 µm
 O.engines = part.engines(0.3, cohesion_on_new_contacts=True, gravity=(0, 0, 0), extra=part.bond_rules(O, soil))
@@ -943,12 +943,72 @@ def test_grains_pressed_together_re_adhere_by_the_force_that_pressed_them_up_to_
     import os
     import subprocess
     import sys
-    r = subprocess.run([sys.executable, "-c", PRESSED, str(alpha), "2.0", str(pull)], capture_output=True, text=True,
+    r = subprocess.run([sys.executable, "-c", PRESSED, str(alpha), "2.0", str(pull), "0"], capture_output=True, text=True,
                        cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out["bond"] == pytest.approx(min(alpha * 2.0, 176e3 * 0.006 ** 2), rel=0.02)
     assert out["apart"] is apart
+
+
+@pytest.mark.scene
+@pytest.mark.parametrize("onset, bond", [(30e3, 1.0), (80e3, 0.0)])
+def test_a_contact_re_adheres_only_once_pressed_past_the_onset(onset, bond):
+    """`adhesion_onset`: two grains pressed together by 2 N at α 0.5 re-adhere by α × 2 N = 1 N where the onset's
+    force (onset × r², r = 6 mm) is under the press (30 kPa: 1.08 N), not at all where it is over (80 kPa: 2.88 N),
+    and then a pull of 0.5 N parts them."""
+    import os
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-c", PRESSED, "0.5", "2.0", "0.5", str(onset)], capture_output=True,
+                       text=True, cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["bond"] == pytest.approx(bond, rel=0.02, abs=1e-9) and out["apart"] is (bond == 0.0)
+
+
+STRUCK = """
+import json, sys
+from scripts.yadeboot import boot
+boot(1)
+from yade import O, utils
+from analysis.core.soil_config import load_soil, soil_with
+from scripts import soil as part
+onset, speed = map(float, sys.argv[1:3])
+soil = soil_with(load_soil("clay"), {"normal_cohesion": 176e3, "shear_cohesion": 176e3, "bond_fragile": 0,
+                                     "new_contact_cohesion": 0.0, "pressed_adhesion": 0.5, "adhesion_onset": onset})
+mat = O.materials.append(part.soil_material(soil, density=2650.0))
+O.materials[mat].normalCohesion = O.materials[mat].shearCohesion = 0.0
+a = O.bodies.append(utils.sphere((0, 0, 0), 0.006, material=mat, fixed=True))
+b = O.bodies.append(utils.sphere((0, 0, 0.0125), 0.006, material=mat))
+O.bodies[b].state.vel = (0, 0, -speed)
+O.engines = part.engines(0.0, cohesion_on_new_contacts=True, gravity=(0, 0, 0), extra=part.bond_rules(O, soil))
+O.dt = 0.5 * utils.PWaveTimeStep()                      # the scenes' step
+peak, bond = 0.0, 0.0
+for _ in range(4000):
+    O.step()
+    if O.interactions.has(a, b) and O.interactions[a, b].isReal:
+        peak = max(peak, O.interactions[a, b].phys.normalForce.norm())
+        bond = max(bond, O.interactions[a, b].phys.normalAdhesion)
+print(json.dumps({"peak": peak, "bond": bond}))
+"""
+
+
+@pytest.mark.scene
+@pytest.mark.parametrize("onset, bonded", [(0.0, True), (30e3, False)])
+def test_a_grain_striking_another_re_adheres_without_an_onset_and_not_past_one(onset, bonded):
+    """A grain striking a fixed one at 0.5 m/s presses it far past the onset's force (30 kPa × r² = 1.08 N) for less
+    than the bond rules' two passes: at α 0.5 with no onset the strike bonds them (α × the force at the pass); with
+    the onset it leaves no bond."""
+    import os
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-c", STRUCK, str(onset), "0.5"], capture_output=True, text=True,
+                       cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["peak"] > 3 * 30e3 * 0.006 ** 2, out
+    assert (out["bond"] > 0) is bonded, out
 
 
 @pytest.mark.scene
@@ -958,7 +1018,7 @@ def test_a_tools_steel_sphere_pressed_into_a_grain_never_re_adheres():
     import os
     import subprocess
     import sys
-    r = subprocess.run([sys.executable, "-c", PRESSED, "0.5", "2.0", "0.05", "steel"], capture_output=True, text=True,
+    r = subprocess.run([sys.executable, "-c", PRESSED, "0.5", "2.0", "0.05", "0", "steel"], capture_output=True, text=True,
                        cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])

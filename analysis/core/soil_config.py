@@ -24,12 +24,16 @@ SOIL_FIELDS = {
     "pressed_adhesion": Field(0.0, 5.0, meaning="a contact holding less than the intact bond gains a bond of this "
                               "times the greatest compressive force it has carried, up to the intact bond (moist soil "
                               "re-adheres where it is pressed together; 0: not at all)"),
+    "adhesion_onset": Field(0.0, 1e7, unit="Pa", meaning="the compression a contact must carry before pressed "
+                            "re-adhesion acts on it, times r_min² a force (a moist contact re-adheres once it yields "
+                            "plastically; a loose heap's light contacts do not); 0: from any load"),
     "bond_stretch": Field(0.0, 1.0, meaning="how far a ductile bond held at its tensile strength stretches before it "
                           "parts, in radii of the smaller grain (YADE's CohFrictPhys.unpMax over r_min), as a moist "
                           "soil's water bridge necks before it snaps; 0: it parts once its strength is passed"),
 }
 # optional in a soil config; a run's id leaves them out
-SOIL_DEFAULTS = {"new_contact_cohesion": 1.0, "bond_fragile": 1, "pressed_adhesion": 0.0, "bond_stretch": 0.0}
+SOIL_DEFAULTS = {"new_contact_cohesion": 1.0, "bond_fragile": 1, "pressed_adhesion": 0.0, "bond_stretch": 0.0,
+                 "adhesion_onset": 0.0}
 SOILS = ("clay", "loam", "sand")
 SOIL_COLOURS = {"clay": "tab:brown", "loam": "tab:olive", "sand": "tab:orange"}    # one colour a soil in every plot
 
@@ -53,6 +57,7 @@ class Soil:
     bond_fragile: int = 1               # 1: bonds break when exceeded; 0: they slide and break only in tension
     pressed_adhesion: float = 0.0       # bond gained per newton of the greatest compression a weaker contact carried
     bond_stretch: float = 0.0           # radii of r_min a ductile bond stretches at its strength before it parts
+    adhesion_onset: float = 0.0         # Pa: times r_min², the compression below which no pressed re-adhesion acts
 
     def __post_init__(self):
         if self.bond_stretch > 0 and self.bond_fragile:

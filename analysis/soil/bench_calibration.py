@@ -15,6 +15,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import re
 import sys
 import time
 import tomllib
@@ -132,6 +133,10 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
                                or float(taller[2]) <= float(box[2])):
         raise ConfigError(f"{path}: bench.check_height_check_mm = {taller}: allowed check_box_mm's {box} with a "
                           "greater height")
+    folder = bench.get("filter_folder")
+    if folder is not None and not (isinstance(folder, str) and re.fullmatch(r"[a-z0-9][a-z0-9-]*", folder)):
+        raise ConfigError(f"{path}: bench.filter_folder = {folder!r}: allowed a folder name of lower-case letters, "
+                          "digits and hyphens (the filter's own folder in results/calibration/bench/)")
     edges = bench.get("cell_edges_mm")
     if edges is not None and (len(edges) < 2 or any(not 40 <= float(e) <= 500 for e in edges)
                               or any(float(b) <= float(a) for a, b in zip(edges, edges[1:]))):
@@ -251,14 +256,17 @@ def shear_test_key(cfg: dict) -> dict:
 
 
 def filter_dir(cfg: dict, out_dir: Path = BENCH_DIR) -> Path:
-    """Where the soil's filter keeps its evaluations and tables: `out_dir`, or its cell-filter/ folder for a filter
-    shearing in the wall-free cell (`shear_test_key`), so that the box-drawn posterior and the tables read from it
-    stand until the cell's filter has drawn its own.
+    """Where the soil's filter keeps its evaluations and tables: `out_dir`, its [bench] filter_folder within it (a
+    variant config's filter), or its cell-filter/ folder for a filter shearing in the wall-free cell
+    (`shear_test_key`), so that the box-drawn posterior and the tables read from it stand until the cell's filter has
+    drawn its own.
 
-    >>> filter_dir({}, Path("b")), filter_dir({"shear_test": "cell", "cell_edges_mm": [120, 180]}, Path("b"))
-    (PosixPath('b'), PosixPath('b/cell-filter'))
+    >>> cell = {"shear_test": "cell", "cell_edges_mm": [120, 180]}
+    >>> filter_dir({}, Path("b")), filter_dir(cell, Path("b")), filter_dir({**cell, "filter_folder": "f"}, Path("b"))
+    (PosixPath('b'), PosixPath('b/cell-filter'), PosixPath('b/f'))
     """
-    return Path(out_dir) / "cell-filter" if shear_test_key(cfg) else Path(out_dir)
+    folder = cfg.get("filter_folder") or ("cell-filter" if shear_test_key(cfg) else "")
+    return Path(out_dir) / folder if folder else Path(out_dir)
 
 
 def from_twin(scene: str, soil: str, seed: int, params: dict, cfg: dict, folder: Path, out_dir: Path) -> dict | None:
