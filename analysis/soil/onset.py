@@ -1,0 +1,143 @@
+"""Why pressed re-adhesion has an onset: how far the wall-free cell's filter could lift clay's c without one, and the
+single tests of the onset (no YADE here).
+
+`reach`: the cell filter's evaluations (results/calibration/bench/cell-filter/clay/, and the evaluations with a bond
+stretch run beside the box filter's in bench/clay/) fitted as planes in their six parameters (c, φ and the collapse
+slope; the cone over these and the box filter's cones, which share every term but the stretch), and the most c the
+planes give inside the cell prior with φ, the slope and the cone in their ranges (scipy's linear programme); again
+with the collapse slope's α term taken out, the heap the onset is for.
+`probes`: the onset's single tests (results/calibration/bench/onset/<law>/<test>/<name>/, each run as
+scripts/collapse.py, simple_shear.py or cone.py with --test-set items, listed in that folder's README): one row
+each with its parameters and reading.
+Writes onset-reach.csv, onset-planes.csv and onset/probes.csv in results/calibration/bench/.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.core.io import atomic_csv
+from analysis.core.schema import ROOT
+from analysis.core.soil_config import BENCH_DIR
+from analysis.soil.bench_calibration import cone_path, load_config, measured, scene_result, target_ranges
+
+CELL_CONFIG = ROOT / "configs/bench_calibration_cell.toml"
+TERMS = ("normal_cohesion", "friction_deg", "pressed_adhesion", "rolling_friction", "damping", "bond_stretch")
+SCALE = {"normal_cohesion": 1e3}          # the bond in kPa in the planes
+TESTS = {"collapse": ("angle_deg", "height_ratio", "runout_mm"), "cell": ("c_kpa", "phi_deg"),
+         "cone": ("cone_index_pa",)}
+
+
+def cell_evaluations(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
+    """Every finished cell evaluation with a bond stretch: parameters, c, φ, the collapse slope and (where it ran) the
+    cone index, kPa."""
+    cfg = load_config(CELL_CONFIG, soil)
+    rows = []
+    for out_dir in (Path(bench_dir) / "cell-filter", Path(bench_dir)):
+        for done in sorted((out_dir / soil).glob("*/responses.json")):
+            row = json.loads(done.read_text())
+            if "bond_stretch" not in row or row.get("failed") or scene_result(done.parent, "shear") is None or \
+                    "tests" not in scene_result(done.parent, "shear"):
+                continue
+            row = measured(row, done.parent)
+            path, _ = cone_path(soil, {k: row[k] for k in TERMS}, cfg, out_dir)
+            cone = json.loads(path.read_text())["cone_index_pa"] / 1e3 if path.exists() else math.nan
+            rows.append({"id": row["id"], **{k: row[k] for k in TERMS}, "c_kpa": row["c_kpa"],
+                         "phi_deg": row["phi_deg"], "collapse_deg": row["collapse_deg"], "cone_kpa": cone})
+    return pd.DataFrame(rows)
+
+
+def plane(table: pd.DataFrame, response: str) -> tuple[np.ndarray, float]:
+    """Least-squares plane of `response` in TERMS (the bond in kPa): intercept then a slope per term, and R²."""
+    ok = table.dropna(subset=[response])
+    X = np.column_stack([np.ones(len(ok)), *[ok[t].fillna(0.0) / SCALE.get(t, 1.0) for t in TERMS]])
+    coef, *_ = np.linalg.lstsq(X, ok[response].to_numpy(float), rcond=None)
+    resid = ok[response] - X @ coef
+    return coef, float(1 - np.sum(resid ** 2) / np.sum((ok[response] - ok[response].mean()) ** 2))
+
+
+def planes(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> tuple[dict, int]:
+    """The cell evaluations' planes (`plane`) of c, φ and the collapse slope, and the cone's over them and the box
+    filter's evaluations (<soil>.csv, the stretch 0); and how many cell evaluations there are."""
+    cells = cell_evaluations(soil, bench_dir)
+    box = pd.read_csv(Path(bench_dir) / f"{soil}.csv", comment="#").assign(bond_stretch=0.0)
+    fitted = {r: plane(cells, r) for r in ("c_kpa", "phi_deg", "collapse_deg")}
+    fitted["cone_kpa"] = plane(pd.concat([box, cells], ignore_index=True), "cone_kpa")
+    return fitted, len(cells)
+
+
+def planes_table(fitted: dict) -> pd.DataFrame:
+    """One row a response: its plane's intercept, a slope per term (per kPa of bond) and R²."""
+    return pd.DataFrame([{"response": r, "intercept": c[0], **dict(zip(TERMS, c[1:])), "r2": r2}
+                         for r, (c, r2) in fitted.items()])
+
+
+def reach(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
+    """The most c the planes give inside the cell prior with φ, the collapse slope and the cone in range; again with
+    the slope's α term at 0. One row each: the planes' c, φ, slope and cone there and the parameters."""
+    from scipy.optimize import linprog
+    cfg = load_config(CELL_CONFIG, soil)
+    ranges = {**target_ranges(soil, cfg), "cone_kpa": target_ranges(soil, {**cfg, "cone_target": True})["cone_kpa"]}
+    planes_, n = planes(soil, bench_dir)
+    bounds = [tuple(v / SCALE.get(t, 1.0) for v in cfg["bounds"][t]) for t in TERMS]
+    rows = []
+    for heap, alpha_in_heap in (("as fitted", True), ("without α in the heap", False)):
+        coefs = {r: c.copy() for r, (c, _) in planes_.items()}
+        if not alpha_in_heap:
+            coefs["collapse_deg"][1 + TERMS.index("pressed_adhesion")] = 0.0
+        A, b = [], []
+        for r in ("phi_deg", "collapse_deg", "cone_kpa"):
+            lo, hi = ranges[r]
+            A += [coefs[r][1:], -coefs[r][1:]]
+            b += [hi - coefs[r][0], coefs[r][0] - lo]
+        out = linprog(-coefs["c_kpa"][1:], A_ub=A, b_ub=b, bounds=bounds)
+        x = out.x if out.success else np.full(len(TERMS), np.nan)
+        rows.append({"soil": soil, "slope_plane": heap, "evaluations": n,
+                     **{r: float(coefs[r][0] + coefs[r][1:] @ x) for r in coefs},
+                     **{t: float(v * SCALE.get(t, 1.0)) for t, v in zip(TERMS, x)},
+                     **{f"r2_{r}": planes_[r][1] for r in planes_}, "c_floor": ranges["c_kpa"][0]})
+    return pd.DataFrame(rows)
+
+
+def probes(folder: Path = BENCH_DIR / "onset") -> pd.DataFrame:
+    """The onset's single tests, one row each: the law (the folder: impacts, held, no-readhesion), the test, the name,
+    the --test-set parameters of the command it ran (its `command` file) and its reading; a collapse that had not
+    come to rest by its time limit reads NaN with `still_moving`."""
+    rows = []
+    for test_dir in sorted(Path(folder).glob("*/*/*")):
+        law, test, name = test_dir.relative_to(folder).parts
+        words = (test_dir / "command").read_text().split()
+        row = {"law": law, "test": test, "name": name,
+               **{k: float(v) for k, v in (words[i + 1].split("=") for i, w in enumerate(words) if w == "--test-set")}}
+        result = next((json.loads(p.read_text()) for p in sorted(test_dir.glob("*.json"))), None)
+        if result is None:
+            row["still_moving"] = "still move" in next(test_dir.glob("*.log")).read_text()
+        else:
+            row.update({k: result[k] for k in TESTS[test] if k in result})
+            if test == "cell":
+                row["tau_peak_kpa"] = " ".join(f"{t['tau_peak_kpa']:.1f}" for t in result["tests"])
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    if "cone_index_pa" in table:
+        table["cone_kpa"] = table.pop("cone_index_pa") / 1e3
+    return table
+
+
+def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
+    """onset-reach.csv and onset/probes.csv in `bench_dir`, where their inputs exist."""
+    paths = []
+    if (Path(bench_dir) / "cell-filter" / "clay").is_dir():
+        paths += [Path(bench_dir) / "onset-reach.csv", Path(bench_dir) / "onset-planes.csv"]
+        atomic_csv(reach("clay", bench_dir).round(4), paths[-2], "./holes calibration-report: the most c clay's cell "
+                   "planes reach with φ, the collapse slope and the cone in range (analysis/soil/onset.py)")
+        atomic_csv(planes_table(planes("clay", bench_dir)[0]).round(5), paths[-1], "./holes calibration-report: "
+                   "clay's cell planes, a slope per term (the bond per kPa), R² (analysis/soil/onset.py)")
+    if (Path(bench_dir) / "onset").is_dir():
+        paths.append(Path(bench_dir) / "onset" / "probes.csv")
+        atomic_csv(probes(Path(bench_dir) / "onset").round(4), paths[-1], "./holes calibration-report: the onset's "
+                   "single tests (results/calibration/bench/onset/README.md)")
+    return paths

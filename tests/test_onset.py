@@ -1,0 +1,33 @@
+"""The onset's tables (analysis/soil/onset.py): the planes it reaches with, and its single tests read from their
+folders."""
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis.soil import onset
+
+
+def test_a_plane_recovers_made_up_slopes_with_the_bond_in_kpa():
+    rng = np.random.default_rng(0)
+    t = pd.DataFrame({k: rng.uniform(lo, hi, 20) for k, (lo, hi) in zip(
+        onset.TERMS, [(4e4, 2e5), (3, 12), (0, 0.3), (0, 0.25), (0.05, 0.2), (0, 0.8)])})
+    t["c_kpa"] = 2 + 0.01 * t.normal_cohesion / 1e3 + 40 * t.pressed_adhesion + 14 * t.bond_stretch
+    coef, r2 = onset.plane(t, "c_kpa")
+    assert coef == pytest.approx([2, 0.01, 0, 40, 0, 0, 14], abs=1e-9) and r2 == pytest.approx(1.0)
+
+
+def test_the_single_tests_are_read_with_their_commands_and_a_column_still_moving(tmp_path):
+    """Each test's parameters come from its command's --test-sets; a collapse without a result is still moving."""
+    stood = tmp_path / "held" / "collapse" / "a"
+    moving = tmp_path / "impacts" / "collapse" / "b"
+    for d, onset_pa in ((stood, 4e4), (moving, 2e4)):
+        d.mkdir(parents=True)
+        (d / "command").write_text(f"python scripts/collapse.py --soil clay --test-set adhesion_onset={onset_pa:g} "
+                                   "--test-set friction_deg=9")
+    (stood / "r.json").write_text(json.dumps({"angle_deg": 26.0, "height_ratio": 0.84, "runout_mm": 635.0}))
+    (moving / "collapse.log").write_text("collapse stopped: collapse: 1 % of the grains still move faster than ...")
+    t = onset.probes(tmp_path).set_index("name")
+    assert t.loc["a", "angle_deg"] == 26.0 and t.loc["a", "adhesion_onset"] == 4e4 and t.loc["b", "friction_deg"] == 9
+    assert bool(t.loc["b", "still_moving"]) and np.isnan(t.loc["b", "angle_deg"])
