@@ -248,7 +248,7 @@ def cmd_calibrate_bench(args) -> int:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1
     command = f"./holes calibrate --soil {args.soil} --bench" + (f" --config {args.config}" if args.config else "")
-    bench.write_posterior(args.soil, post, check, command)
+    bench.write_posterior(args.soil, post, check, command, folder=out_dir)
     bench.report()
     print(f"calibrate {args.soil}: the posterior mean on packings {', '.join(map(str, cfg['check_seeds']))}: "
           f"{bench.check_status(check)} (configs/soils/{args.soil}.toml [bench_posterior])")

@@ -1228,13 +1228,15 @@ def packings_line(result: dict, seeds: list[int], key: str = "check_packings", b
     return f"{key} = {{ " + ", ".join([*box, f"seeds = {list(map(int, seeds))}", *verdicts]) + " }"
 
 
-def posterior_block(soil: str, post: dict, check_result: dict, command: str, packings: str | None = None) -> str:
+def posterior_block(soil: str, post: dict, check_result: dict, command: str, packings: str | None = None,
+                    folder: Path = BENCH_DIR) -> str:
     """The `[bench_posterior]` table a soil's config carries: the parameters held fixed, each calibrated parameter's
     posterior mean and 95 % interval,
     their correlations, the bench responses of the mean over the check packings, and whether every packing's
     response lies inside every target's range (status); `packings`, its check on more packings (`packings_line`)."""
     status = check_status(check_result)
-    lines = [POSTERIOR_HEAD + f" (`{command}`), results/calibration/bench/{soil}-posterior.json; the runs of the",
+    where = Path(folder).resolve().relative_to(ROOT) if Path(folder).resolve().is_relative_to(ROOT) else Path(folder)
+    lines = [POSTERIOR_HEAD + f" (`{command}`), {where}/{soil}-posterior.json; the runs of the",
              "# holes use [soil] above until it is adopted.", "[bench_posterior]", f'status = "{status}"']
     if packings:
         lines.append(packings)
@@ -1253,7 +1255,7 @@ def posterior_block(soil: str, post: dict, check_result: dict, command: str, pac
 
 
 def write_posterior(soil: str, post: dict, check_result: dict, command: str, path: Path | None = None,
-                    packings: str | None = None) -> Path:
+                    packings: str | None = None, folder: Path = BENCH_DIR) -> Path:
     """Put (or replace) the soil config's `[bench_posterior]` table, keeping the rest of the file as it is; the file
     must still load."""
     from analysis.core.soil_config import load_soil
@@ -1261,7 +1263,7 @@ def write_posterior(soil: str, post: dict, check_result: dict, command: str, pat
     text = path.read_text()
     if POSTERIOR_HEAD in text:
         text = text[:text.index(POSTERIOR_HEAD)].rstrip("\n") + "\n"
-    atomic_write(path, text + "\n" + posterior_block(soil, post, check_result, command, packings))
+    atomic_write(path, text + "\n" + posterior_block(soil, post, check_result, command, packings, folder))
     load_soil(path)
     return path
 
@@ -1283,7 +1285,8 @@ def record_packings(soil: str, result: dict, seeds: list[int], out_dir: Path = B
     cell = posterior_line(soil, out_dir)
     if cell:
         lines.append(cell)
-    return write_posterior(soil, post, three, f"./holes calibrate --soil {soil} --bench", path, "\n".join(lines))
+    return write_posterior(soil, post, three, f"./holes calibrate --soil {soil} --bench", path, "\n".join(lines),
+                           out_dir)
 
 
 SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping", "pressed_adhesion")
