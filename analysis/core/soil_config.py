@@ -24,9 +24,10 @@ SOIL_FIELDS = {
     "pressed_adhesion": Field(0.0, 5.0, meaning="a contact holding less than the intact bond gains a bond of this "
                               "times the greatest compressive force it has carried, up to the intact bond (moist soil "
                               "re-adheres where it is pressed together; 0: not at all)"),
-    "adhesion_onset": Field(0.0, 1e7, unit="Pa", meaning="the compression a contact must carry before pressed "
-                            "re-adhesion acts on it, times r_min² a force (a moist contact re-adheres once it yields "
-                            "plastically; a loose heap's light contacts do not); 0: from any load"),
+    "adhesion_onset": Field(0.0, 1e7, unit="Pa", meaning="the compression a contact must carry at two passes of the "
+                            "bond rules in a row (longer than a grain's impact) before pressed re-adhesion acts on it, "
+                            "times r_min² a force (a moist contact re-adheres once it yields plastically; a loose "
+                            "heap's light contacts do not); 0: from any load, at once"),
     "bond_stretch": Field(0.0, 1.0, meaning="how far a ductile bond held at its tensile strength stretches before it "
                           "parts, in radii of the smaller grain (YADE's CohFrictPhys.unpMax over r_min), as a moist "
                           "soil's water bridge necks before it snaps; 0: it parts once its strength is passed"),
