@@ -185,3 +185,18 @@ def test_the_cell_config_lays_clays_cell_filter_over_the_bench_config_and_nothin
         bench.load_config(Path(tmp_path / "v.toml"))
     assert main(["calibrate", "--soil", "clay", "--config", str(cell_cfg)]) == 2
     assert "--config: allowed only with --bench" in capsys.readouterr().err
+
+
+def test_the_onset_config_fixes_the_held_onset_in_its_own_folder_and_refuses_a_folder_that_is_not_a_name(tmp_path):
+    """configs/bench_calibration_onset.toml, laid over the cell config: clay's filter in the cell with the onset of
+    pressed re-adhesion fixed (not calibrated), its evaluations in bench/onset-filter/; a filter_folder that is not a
+    plain name is refused naming the key."""
+    onset_cfg = bench.ROOT / "configs/bench_calibration_onset.toml"
+    clay = bench.load_config(onset_cfg, soil="clay")
+    assert clay["shear_test"] == "cell" and clay["fixed"]["adhesion_onset"] == 4.0e4
+    assert "adhesion_onset" not in clay["bounds"] and clay["bounds"]["normal_cohesion"][0] == 6.0e4
+    assert bench.filter_dir(clay) == bench.BENCH_DIR / "onset-filter"
+    (tmp_path / "bench_calibration.toml").write_text(bench.CONFIG.read_text())
+    (tmp_path / "v.toml").write_text('base = "bench_calibration.toml"\n[bench]\nfilter_folder = "../elsewhere"\n')
+    with pytest.raises(ConfigError, match=r"bench.filter_folder = '../elsewhere'.*allowed"):
+        bench.load_config(tmp_path / "v.toml")
