@@ -27,7 +27,7 @@ import pandas as pd
 from scipy import stats
 
 from analysis.core.config import SEED
-from analysis.core.io import atomic_csv, atomic_write, say
+from analysis.core.io import atomic_csv, atomic_write, say, shown
 from analysis.core.runner import run_logged
 from analysis.core.schema import ROOT, ConfigError, digest
 from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS
@@ -1235,8 +1235,8 @@ def posterior_block(soil: str, post: dict, check_result: dict, command: str, pac
     their correlations, the bench responses of the mean over the check packings, and whether every packing's
     response lies inside every target's range (status); `packings`, its check on more packings (`packings_line`)."""
     status = check_status(check_result)
-    where = Path(folder).resolve().relative_to(ROOT) if Path(folder).resolve().is_relative_to(ROOT) else Path(folder)
-    lines = [POSTERIOR_HEAD + f" (`{command}`), {where}/{soil}-posterior.json; the runs of the",
+    source = shown(Path(folder).resolve() / f"{soil}-posterior.json")
+    lines = [POSTERIOR_HEAD + f" (`{command}`), {source}; the runs of the",
              "# holes use [soil] above until it is adopted.", "[bench_posterior]", f'status = "{status}"']
     if packings:
         lines.append(packings)

@@ -23,7 +23,8 @@ import pandas as pd
 from analysis.core.io import atomic_csv
 from analysis.core.schema import ROOT
 from analysis.core.soil_config import BENCH_DIR
-from analysis.soil.bench_calibration import cone_path, load_config, measured, scene_result, target_ranges
+from analysis.soil.bench_calibration import (cone_path, cone_range, load_config, measured, scene_result,
+                                             target_ranges)
 
 CELL_CONFIG = ROOT / "configs/bench_calibration_cell.toml"
 TERMS = ("normal_cohesion", "friction_deg", "pressed_adhesion", "rolling_friction", "damping", "bond_stretch")
@@ -40,8 +41,7 @@ def cell_evaluations(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> pd.Data
     for out_dir in (Path(bench_dir) / "cell-filter", Path(bench_dir)):
         for done in sorted((out_dir / soil).glob("*/responses.json")):
             row = json.loads(done.read_text())
-            if "bond_stretch" not in row or row.get("failed") or scene_result(done.parent, "shear") is None or \
-                    "tests" not in scene_result(done.parent, "shear"):
+            if "bond_stretch" not in row or row.get("failed") or scene_result(done.parent, "shear") is None:
                 continue
             row = measured(row, done.parent)
             path, _ = cone_path(soil, {k: row[k] for k in TERMS}, cfg, out_dir)
@@ -81,7 +81,7 @@ def reach(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
     the slope's α term at 0. One row each: the planes' c, φ, slope and cone there and the parameters."""
     from scipy.optimize import linprog
     cfg = load_config(CELL_CONFIG, soil)
-    ranges = {**target_ranges(soil, cfg), "cone_kpa": target_ranges(soil, {**cfg, "cone_target": True})["cone_kpa"]}
+    ranges = {**target_ranges(soil, cfg), "cone_kpa": cone_range(soil, cfg)}
     planes_, n = planes(soil, bench_dir)
     bounds = [tuple(v / SCALE.get(t, 1.0) for v in cfg["bounds"][t]) for t in TERMS]
     rows = []
