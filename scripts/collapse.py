@@ -3,7 +3,10 @@
     .venv/bin/python scripts/collapse.py --soil clay --resolution medium --size 150,150,100
 
 A settled bed's grains stand in a box (a back wall, two smooth side walls, a gate, a rough floor reaching
-RUNOUT_LENGTHS × the column's length beyond the gate). Every contact is a new one, bonded at the soil's
+RUNOUT_LENGTHS × the column's length beyond the gate). The floor (--floor) is a plane of the soil's friction and
+rolling resistance ("plane"), or a layer of fixed grains of the bed's radius in a close-packed lattice, their tops at
+the plane's level ("grains"), as a laboratory glues grains to its base: a plane is only as rough as the grains' own
+friction, and grains of a few degrees run out along it as on ice. Every contact is a new one, bonded at the soil's
 `new_contact_cohesion` of the intact bonds' strength: the column is soil that a tool has broken and that has been
 pressed together again, what falls back into a hole. The gate is taken away and the column slumps under gravity
 until all but a few grains (STILL_SHARE) move slower than STILL_SPEED; a grain that rolls off the floor's end is
@@ -32,10 +35,11 @@ STILL_SHARE = 0.99             # (a few grains rolling away on the floor do not 
 MAX_TIME_FIELD = Field(0.5, 30.0, unit="s", meaning="the longest a collapse may run")
 MIN_TIME = 0.3                 # s before the stillness is checked (the gate's opening takes a few ms)
 MAX_TIME = 3.0                 # s: a column still moving by then is reported as such, never as a slope (--max-time)
+FLOORS = ("plane", "grains")   # --floor: the floor's roughness, its own friction or its grains'
 
 
 def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None = None, quiet: bool = False,
-        max_time: float = MAX_TIME) -> dict:
+        max_time: float = MAX_TIME, floor: str = "plane") -> dict:
     """Let the bed's column of disturbed soil collapse; return its slope, height and run-out."""
     from scripts.beds import bench_start
     soil, meta, data, log = bench_start(bed_path, soil_name, overrides, threads, quiet)
@@ -48,15 +52,20 @@ def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None
     r, top0 = data.r, data.top
     mat = O.materials.append(part.soil_material(part.disturbed(soil), density=meta["grain_density"], cohesive=True))
     smooth = O.materials.append(part.steel_material(soil, friction_deg=0.0))
-    rough = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=False))  # soil on soil:
-    # its friction and rolling resistance, never bonded (a floor without rolling resistance lets grains roll on
-    # until the local damping stops them)
+    rough = O.materials.append(part.soil_material(soil, density=meta["grain_density"], cohesive=False,
+                                                  label="floor"))  # soil on soil: its friction and rolling resistance,
+    # never bonded (a floor without rolling resistance lets grains roll on until the local damping stops them)
     grains = list(O.bodies.append([utils.sphere(tuple(p), rr, material=mat)
                                    for p, rr in zip(data.pos, data.radius)]))
     t, H = 0.02, top0 + 0.05
     far = L * (1 + RUNOUT_LENGTHS)
+    base = 0.0
+    if floor == "grains":                             # the fixed grains' tops at z = 0, the plane under their centres
+        centres = floor_grains(far, W, r)
+        O.bodies.append([utils.sphere(tuple(c), r, fixed=True, material=rough) for c in centres])
+        base = -r
     O.bodies.append([
-        utils.box((far / 2, W / 2, -t), (far / 2 + t, W / 2 + t, t), fixed=True, material=rough),      # floor
+        utils.box((far / 2, W / 2, base - t), (far / 2 + t, W / 2 + t, t), fixed=True, material=rough),  # floor
         utils.box((-t, W / 2, H / 2), (t, W / 2 + t, H / 2), fixed=True, material=smooth),             # back wall
         utils.box((far / 2, -t, H / 2), (far / 2 + t, t, H / 2), fixed=True, material=smooth),         # sides
         utils.box((far / 2, W + t, H / 2), (far / 2 + t, t, H / 2), fixed=True, material=smooth)])
@@ -90,7 +99,7 @@ def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None
             break
     if not still:
         raise RuntimeError(f"collapse: {100 * (1 - STILL_SHARE):g} % of the grains still move faster than {moving:.3f} m/s "
-                           f"after {max_time:g} s")
+                           f"after {max_time:g} s, the front {1000 * (front - L):.0f} mm past the gate")
     pos = np.array([O.bodies[i].state.pos for i in grains])
     rad = np.array([O.bodies[i].shape.radius for i in grains])
     edges = np.arange(0.0, far + 2 * r, 2 * r)
@@ -98,12 +107,29 @@ def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None
     top = np.zeros(len(edges) - 1)
     np.maximum.at(top, np.clip(which, 0, len(top) - 1), pos[:, 2] + rad)
     slope = slope_angle((edges[:-1] + edges[1:]) / 2, top)
-    return {"bed": meta["key"], "soil": soil.name, "radius_m": r, "size_m": [L, W, D],
+    return {"bed": meta["key"], "soil": soil.name, "radius_m": r, "size_m": [L, W, D], "floor": floor,
             "new_contact_cohesion": soil.new_contact_cohesion, "angle_deg": slope["angle_deg"], "slope_run_m": slope["run_m"],
             "height_ratio": slope["height_m"] / top0, "runout_mm": 1000 * (float(np.max(pos[:, 0] + rad)) - L),
             "particles": column, "ran_off": ran_off, "steps": int(O.iter), "dt": O.dt, "time_s": O.time,
             "wall_s": time.time() - wall0,
             "threads": threads, "profile_mm": [[round(1000 * a, 1), round(1000 * b, 1)] for a, b in zip(edges[:-1], top)]}
+
+
+def floor_grains(length: float, width: float, r: float):
+    """The centres of a floor of touching grains of radius r in a close-packed (hexagonal) lattice over length ×
+    width from the origin, their centres at z = -r: rows along x, 2r apart, √3 r between rows, odd rows shifted by r.
+
+    >>> c = floor_grains(0.1, 0.05, 0.01)
+    >>> len(c), c[0].tolist(), c[5].round(4).tolist()
+    (9, [0.01, 0.01, -0.01], [0.02, 0.0273, -0.01])
+    """
+    import numpy as np
+    rows = np.arange(r, width - r + 1e-12, np.sqrt(3) * r)
+    out = []
+    for j, y in enumerate(rows):
+        xs = np.arange(r * (1 + j % 2), length - r + 1e-12, 2 * r)
+        out += [(x, y, -r) for x in xs]
+    return np.array(out)
 
 
 def arguments():
@@ -114,6 +140,8 @@ def arguments():
     p.add_argument("--out", type=folder("--out"), help="where the result goes (default results/soils/collapse)")
     p.add_argument("--max-time", type=option("--max-time", MAX_TIME_FIELD), default=MAX_TIME,
                    help=f"simulated seconds the column may take to come to rest (default {MAX_TIME:g})")
+    p.add_argument("--floor", choices=FLOORS, default="plane",
+                   help="the floor's roughness: a plane of the soil's friction (default) or a layer of fixed grains")
     return p
 
 
@@ -122,7 +150,7 @@ def main(argv=None) -> int:
     a = arguments().parse_args(argv)
     try:
         test = bed.test_overrides(a)
-        row = run(bed.bed_from_args(a), a.soil, a.threads, test, max_time=a.max_time)
+        row = run(bed.bed_from_args(a), a.soil, a.threads, test, max_time=a.max_time, floor=a.floor)
     except (ConfigError, ValueError) as e:
         print(f"collapse: {e}", file=sys.stderr)
         return 2

@@ -32,14 +32,15 @@ CELL_MARGIN = 0.1                # m between anything in a periodic cell and its
 STEEL_SOIL_FRICTION_DEG = 25.0   # soil on polished steel, typical 20-30 deg
 
 
-def soil_material(soil, density: float, young: float | None = None, cohesive: bool = True):
-    """The soil's particle material; `young` overrides the modulus (softer while settling)."""
+def soil_material(soil, density: float, young: float | None = None, cohesive: bool = True, label: str = "soil"):
+    """The soil's particle material; `young` overrides the modulus (softer while settling). Spheres labelled "soil"
+    are the grains the bond rules act on; a bench test's fixed grains take another label."""
     return CohFrictMat(young=young or soil.young, poisson=soil.poisson, frictionAngle=math.radians(soil.friction_deg),
                        density=density, isCohesive=cohesive, fragile=bool(soil.bond_fragile),
                        normalCohesion=soil.normal_cohesion if cohesive else 0.0,
                        shearCohesion=soil.shear_cohesion if cohesive else 0.0,
                        momentRotationLaw=True, alphaKr=soil.rolling_stiffness, etaRoll=soil.rolling_friction,
-                       label="soil")
+                       label=label)
 
 
 def disturbed(soil):

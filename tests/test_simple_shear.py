@@ -200,3 +200,62 @@ def test_the_onset_config_fixes_the_held_onset_in_its_own_folder_and_refuses_a_f
     (tmp_path / "v.toml").write_text('base = "bench_calibration.toml"\n[bench]\nfilter_folder = "../elsewhere"\n')
     with pytest.raises(ConfigError, match=r"bench.filter_folder = '../elsewhere'.*allowed"):
         bench.load_config(tmp_path / "v.toml")
+
+
+PARAMS = {"normal_cohesion": 9e4, "friction_deg": 6.0, "pressed_adhesion": 0.3, "rolling_friction": 0.2, "damping": 0.15,
+          "bond_stretch": 0.4}
+
+
+def test_a_column_on_fixed_grains_is_named_apart_and_reuses_the_plane_evaluations_cell(tmp_path, monkeypatch):
+    """[bench] collapse_floor = "grains" (the onset config's): the evaluation is named apart from the plane's, which
+    keeps its id; it reads the cell back from the plane's evaluation of the same set and packing and runs only the
+    collapse test, on the grains; a floor that is not one of the two is refused naming the key."""
+    from pathlib import Path
+    from analysis.core import runner
+    from analysis.soil import shear
+    cfg = bench.load_config(bench.ROOT / "configs/bench_calibration_onset.toml", soil="clay")
+    plane = {**cfg, "collapse_floor": "plane"}
+    assert cfg["collapse_floor"] == "grains"
+    assert bench.evaluation_id("clay", 1, PARAMS, plane) == bench.evaluation_id(
+        "clay", 1, PARAMS, {k: v for k, v in cfg.items() if k != "collapse_floor"})
+    assert bench.evaluation_id("clay", 1, PARAMS, cfg) != bench.evaluation_id("clay", 1, PARAMS, plane)
+    ran = []
+
+    def fake(cmd, sink):
+        scene, folder = Path(cmd[1]).stem, Path(cmd[cmd.index("--out") + 1])
+        ran.append(cmd)
+        if scene == "collapse":
+            heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
+            (folder / "column.json").write_text(json.dumps({"profile_mm": heap}))
+            return 0, json.dumps({"runout_mm": 100.0})
+        result = fake_cell("clay", 120, 1, 21.0, 26.0, {})
+        result.update(shear.fit_tests(result["tests"]))       # as the cell's file has its fit
+        (folder / "cell.json").write_text(json.dumps(result))
+        return 0, json.dumps(shear.fit_tests(result["tests"]))
+    monkeypatch.setattr(runner, "run_process", fake)
+    bench.evaluate("clay", 1, PARAMS, plane, tmp_path)
+    assert [Path(c[1]).stem for c in ran] == ["simple_shear", "collapse"]
+    assert ran[1][ran[1].index("--floor") + 1] == "plane"
+    ran.clear()
+    row = bench.evaluate("clay", 1, PARAMS, cfg, tmp_path)
+    assert [Path(c[1]).stem for c in ran] == ["collapse"] and ran[0][ran[0].index("--floor") + 1] == "grains"
+    assert row["resumed"] == "shear (a twin's)" and row["c_kpa"] == pytest.approx(21.0)
+    (tmp_path / "bench_calibration.toml").write_text(bench.CONFIG.read_text())
+    (tmp_path / "v.toml").write_text('base = "bench_calibration.toml"\n[bench]\ncollapse_floor = "ice"\n')
+    with pytest.raises(ConfigError, match=r"bench.collapse_floor = 'ice'.*allowed 'plane' or 'grains'"):
+        bench.load_config(tmp_path / "v.toml")
+
+
+def test_the_floors_grains_touch_in_a_close_packed_lattice_within_the_floor():
+    """scripts/collapse.py's floor of fixed grains: every grain inside the floor, none overlapping, each inner one
+    touching six, their tops at z = 0."""
+    import numpy as np
+    from scripts.collapse import floor_grains
+    r = 0.006
+    c = floor_grains(0.3, 0.12, r)
+    assert c[:, 0].min() >= r - 1e-12 and c[:, 0].max() <= 0.3 - r + 1e-12 and c[:, 1].max() <= 0.12 - r + 1e-12
+    assert np.allclose(c[:, 2] + r, 0.0)
+    gaps = np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2) + np.eye(len(c))
+    assert gaps.min() == pytest.approx(2 * r)
+    touching = (np.abs(gaps - 2 * r) < 1e-9).sum(axis=1)
+    assert touching.max() == 6 and np.median(touching) == 6

@@ -1515,3 +1515,15 @@ def test_a_stopped_shear_run_resumes_at_the_normal_stress_it_stopped_in(tmp_path
         assert shear.main(argv) == 3 and ran == [(50.0, 0.1), (100.0, 0.1)]
         change()
         assert shear.main(argv) == 0 and ran[2:] == [(50.0, 0.1), (100.0, 0.1), (200.0, 0.1)]
+
+
+@pytest.mark.scene
+def test_a_column_on_fixed_grains_holds_its_toe_where_a_plane_of_the_grains_friction_lets_it_run(tmp_path):
+    """Cohesionless grains of 5° friction: on the plane floor the heap runs out along it, on the floor of fixed grains
+    (--floor grains) it stands steeper and shorter (sand's small column: 11.5° and 168 mm on the plane, 23.9° and
+    92 mm on the grains)."""
+    low = ["--test-set", "friction_deg=5", "--test-set", "new_contact_cohesion=0"]
+    runs = bench_scenes(tmp_path, "collapse", {floor: [*low, "--floor", floor] for floor in ("plane", "grains")})
+    assert runs["grains"]["floor"] == "grains"
+    assert runs["grains"]["angle_deg"] > runs["plane"]["angle_deg"] + 5, runs
+    assert runs["grains"]["runout_mm"] < 0.8 * runs["plane"]["runout_mm"], runs

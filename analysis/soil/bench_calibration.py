@@ -39,6 +39,7 @@ RESPONSES = ("c_kpa", "phi_deg", "collapse_deg")
 SHEAR_RESPONSES = ("c_kpa", "phi_deg")    # the shear box's: what its size check moves
 UNTESTABLE = 3         # a bench scene's exit code when it stopped the test itself (scripts/shear.py, scripts/collapse.py)
 SCENES_VERSION = 3     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
+COLLAPSE_FLOORS = ("plane", "grains")   # the collapse column's floor ([bench] collapse_floor; scripts/collapse.py --floor)
 
 
 def laid_over(path: Path, seen: tuple = ()) -> dict:
@@ -146,6 +147,9 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
         raise ConfigError(f"{path}: bench.shear_test = {bench.get('shear_test')!r}: allowed \"box\" (the direct shear "
                           "box) or \"cell\" (the wall-free simple shear cell, at the first of cell_edges_mm, which it "
                           "needs)")
+    if bench.get("collapse_floor", "plane") not in COLLAPSE_FLOORS:
+        raise ConfigError(f"{path}: bench.collapse_floor = {bench['collapse_floor']!r}: allowed "
+                          f"{' or '.join(repr(f) for f in COLLAPSE_FLOORS)} (scripts/collapse.py --floor)")
     if soil is not None:
         bounds.update(per_soil.get(soil, {}))
     if len(bounds) < 3:
@@ -240,7 +244,31 @@ def scene_inputs(scene: str, cfg: dict) -> dict:
         return {**common, "size_mm": [float(v) for v in cfg["size_mm"]],
                 "stresses": [float(v) for v in cfg["stresses_kpa"]], "speed": float(cfg["speed_m_s"]),
                 **shear_test_key(cfg)}
-    return {**common, "size_mm": [float(v) for v in collapse_size(cfg)]}
+    return {**common, "size_mm": [float(v) for v in collapse_size(cfg)], **collapse_floor_key(cfg)}
+
+
+def collapse_floor_key(cfg: dict) -> dict:
+    """What names the collapse column's floor: nothing for the plane (evaluations keep their ids), the floor for
+    fixed grains ([bench] collapse_floor = "grains").
+
+    >>> collapse_floor_key({}), collapse_floor_key({"collapse_floor": "grains"})
+    ({}, {'collapse_floor': 'grains'})
+    """
+    floor = cfg.get("collapse_floor", "plane")
+    return {} if floor == "plane" else {"collapse_floor": floor}
+
+
+def floor_twins(cfg: dict) -> list[dict]:
+    """cfg's twins (`from_twin`): its own ("twins", the checks' boxes), and for a column on fixed grains the same
+    bench on the plane, whose shear tests are this bench's (a filter moved onto the grains keeps its finished cells).
+
+    >>> [t.get("collapse_floor", "plane") for t in floor_twins({"collapse_floor": "grains"})], floor_twins({})
+    (['plane'], [])
+    """
+    own = list(cfg.get("twins", []))
+    if collapse_floor_key(cfg):
+        own.append({**cfg, "collapse_floor": "plane", "twins": []})
+    return own
 
 
 def shear_test_key(cfg: dict) -> dict:
@@ -272,7 +300,7 @@ def filter_dir(cfg: dict, out_dir: Path = BENCH_DIR) -> Path:
 def from_twin(scene: str, soil: str, seed: int, params: dict, cfg: dict, folder: Path, out_dir: Path) -> dict | None:
     """The scene's finished result from a twin evaluation (cfg["twins"]) of the same set and packing whose scene had
     the same inputs (`scene_inputs`), copied into `folder` with its log; None if no twin finished it."""
-    for twin in cfg.get("twins", []):
+    for twin in floor_twins(cfg):
         if scene_inputs(scene, twin) != scene_inputs(scene, cfg):
             continue
         source = Path(out_dir) / soil / evaluation_id(soil, seed, params, twin)
@@ -297,6 +325,7 @@ def evaluation_id(soil: str, seed: int, params: dict, cfg: dict) -> str:
     if collapse_size(cfg) != list(cfg["size_mm"]):     # likewise a collapse column of its own
         key["collapse_size_mm"] = collapse_size(cfg)
     key.update(shear_test_key(cfg))                     # and the wall-free cell in place of the box
+    key.update(collapse_floor_key(cfg))                 # and a column on fixed grains
     return f"s{seed}-{digest(key, 10)}"
 
 
@@ -333,7 +362,8 @@ def evaluate(soil: str, seed: int, params: dict, cfg: dict, out_dir: Path = BENC
     shear = ["--size", f"{cell['cell_edge_mm']:g}" if cell else ",".join(map(str, cfg["size_mm"])),
              "--stress", ",".join(map(str, cfg["stresses_kpa"])), *([] if cell else ["--speed", str(cfg["speed_m_s"])])]
     script = {"shear": "simple_shear" if cell else "shear", "collapse": "collapse"}
-    for scene, extra in (("shear", shear), ("collapse", ["--size", ",".join(map(str, collapse_size(cfg)))])):
+    column = ["--size", ",".join(map(str, collapse_size(cfg))), "--floor", cfg.get("collapse_floor", "plane")]
+    for scene, extra in (("shear", shear), ("collapse", column)):
         results[scene] = scene_result(folder, scene)
         if results[scene] is not None:       # a stopped evaluation resumes after its last finished test
             resumed.append(scene)
