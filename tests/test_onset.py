@@ -31,3 +31,31 @@ def test_the_single_tests_are_read_with_their_commands_and_a_column_still_moving
     t = onset.probes(tmp_path).set_index("name")
     assert t.loc["a", "angle_deg"] == 26.0 and t.loc["a", "adhesion_onset"] == 4e4 and t.loc["b", "friction_deg"] == 9
     assert bool(t.loc["b", "still_moving"]) and np.isnan(t.loc["b", "angle_deg"])
+
+
+def test_the_filters_evaluations_are_read_with_their_floor_and_a_failed_columns_cell(tmp_path):
+    """One evaluation on the grains that finished, one on the plane whose column was still moving: each row names its
+    floor, c and φ come from the cell in both, the slope from the finished column only, the failure's reason kept."""
+    import math
+    tests = [{"stress_kpa": s, "sigma_at_peak_kpa": s, "tau_peak_kpa": 20 + s * math.tan(math.radians(25)),
+              "size_m": [0.12] * 3} for s in (50.0, 100.0, 200.0)]
+    params = dict(zip(onset.TERMS, (9e4, 6.0, 0.3, 0.2, 0.15, 0.4)))
+    heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
+    cfg = onset.load_config(onset.ONSET_CONFIG, "clay")
+    ids = {f: onset.evaluation_id("clay", 1, params, {**cfg, "collapse_floor": f}) for f in ("plane", "grains")}
+    for floor, failed in (("grains", None), ("plane", "scripts/collapse.py: collapse stopped: collapse: 1 % of the "
+                                                      "grains still move faster")):
+        name = ids[floor]
+        d = tmp_path / "clay" / name
+        d.mkdir(parents=True)
+        (d / "cell.json").write_text(json.dumps({"tests": tests}))
+        if failed is None:
+            (d / "column.json").write_text(json.dumps({"profile_mm": heap, "floor": floor}))
+        (d / "responses.json").write_text(json.dumps({"id": name, "soil": "clay", "seed": 1, **params,
+                                                      **({"failed": failed} if failed else {})}))
+    t = onset.filter_evaluations(tmp_path).set_index("floor")
+    assert t.loc["grains", "id"] == ids["grains"] and t.loc["plane", "id"] == ids["plane"]
+    assert t["c_kpa"].to_numpy() == pytest.approx([20, 20], abs=1e-6)
+    assert t.loc["grains", "collapse_deg"] == pytest.approx(45.0, abs=1.0) and np.isnan(t.loc["plane", "collapse_deg"])
+    assert t.loc["plane", "failed"].startswith("1 % of the grains") and t.loc["grains", "failed"] == ""
+    assert np.isnan(t["cone_kpa"]).all()

@@ -9,7 +9,10 @@ with the collapse slope's α term taken out, the heap the onset is for.
 `probes`: the onset's single tests (results/calibration/bench/onset/<law>/<test>/<name>/, each run as
 scripts/collapse.py, simple_shear.py or cone.py with --test-set items, listed in that folder's README): one row
 each with its parameters and reading.
-Writes onset-reach.csv, onset-planes.csv and onset/probes.csv in results/calibration/bench/.
+`filter_evaluations`: the onset filter's finished evaluations (bench/onset-filter/), one row each, before the filter
+has drawn its iteration's table.
+Writes onset-reach.csv, onset-planes.csv, onset/probes.csv and onset-filter/evaluations.csv in
+results/calibration/bench/.
 """
 from __future__ import annotations
 
@@ -23,10 +26,11 @@ import pandas as pd
 from analysis.core.io import atomic_csv
 from analysis.core.schema import ROOT
 from analysis.core.soil_config import BENCH_DIR
-from analysis.soil.bench_calibration import (cone_path, cone_range, load_config, measured, scene_result,
-                                             target_ranges)
+from analysis.soil.bench_calibration import (COLLAPSE_FLOORS, cone_path, cone_range, evaluation_id, load_config,
+                                             measured, scene_result, target_ranges)
 
 CELL_CONFIG = ROOT / "configs/bench_calibration_cell.toml"
+ONSET_CONFIG = ROOT / "configs/bench_calibration_onset.toml"
 TERMS = ("normal_cohesion", "friction_deg", "pressed_adhesion", "rolling_friction", "damping", "bond_stretch")
 SCALE = {"normal_cohesion": 1e3}          # the bond in kPa in the planes
 TESTS = {"collapse": ("angle_deg", "height_ratio", "runout_mm"), "cell": ("c_kpa", "phi_deg"),
@@ -127,6 +131,31 @@ def probes(folder: Path = BENCH_DIR / "onset") -> pd.DataFrame:
     return table
 
 
+def filter_evaluations(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFrame:
+    """Every evaluation the onset filter has finished (`folder`/<soil>/*/responses.json), one row each: its id, the
+    collapse column's floor, the parameters, c and φ from its cell (read where the column failed too), the collapse
+    slope and why it failed, if it did; the cone index where it ran (`config`'s cone, kept in `folder`/cone/)."""
+    from analysis.soil.collapse import profile_angle
+    from analysis.soil.shear import fit_tests
+    rows = []
+    for done in sorted(Path(folder).glob("*/*/responses.json")):
+        row, here = json.loads(done.read_text()), done.parent
+        cell, column = scene_result(here, "shear"), scene_result(here, "collapse")
+        fit = fit_tests(cell["tests"]) if cell else {}
+        failed = row.get("failed") if isinstance(row.get("failed"), str) else ""
+        cfg, params = load_config(config, row["soil"]), {k: row[k] for k in TERMS}
+        floor = next(f for f in COLLAPSE_FLOORS                 # the floor its id was drawn with
+                     if evaluation_id(row["soil"], row["seed"], params, {**cfg, "collapse_floor": f}) == row["id"])
+        cone, _ = cone_path(row["soil"], params, cfg, folder)
+        rows.append({"soil": row["soil"], "id": row["id"], "seed": row["seed"], "floor": floor,
+                     **{k: row[k] for k in TERMS}, "c_kpa": fit.get("c_kpa", math.nan),
+                     "phi_deg": fit.get("phi_deg", math.nan),
+                     "collapse_deg": profile_angle(column["profile_mm"]) if column else math.nan,
+                     "cone_kpa": json.loads(cone.read_text())["cone_index_pa"] / 1e3 if cone.exists() else math.nan,
+                     "failed": failed.removeprefix("scripts/collapse.py: collapse stopped: collapse: ")})
+    return pd.DataFrame(rows)
+
+
 def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
     """onset-reach.csv and onset/probes.csv in `bench_dir`, where their inputs exist."""
     paths = []
@@ -136,6 +165,11 @@ def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
                    "planes reach with φ, the collapse slope and the cone in range (analysis/soil/onset.py)")
         atomic_csv(planes_table(planes("clay", bench_dir)[0]).round(5), paths[-1], "./holes calibration-report: "
                    "clay's cell planes, a slope per term (the bond per kPa), R² (analysis/soil/onset.py)")
+    if (Path(bench_dir) / "onset-filter").is_dir():
+        paths.append(Path(bench_dir) / "onset-filter" / "evaluations.csv")
+        atomic_csv(filter_evaluations(Path(bench_dir) / "onset-filter").round(4), paths[-1], "./holes "
+                   "calibration-report: the onset filter's finished evaluations, whichever iteration "
+                   "(configs/bench_calibration_onset.toml; analysis/soil/onset.py)")
     if (Path(bench_dir) / "onset").is_dir():
         paths.append(Path(bench_dir) / "onset" / "probes.csv")
         atomic_csv(probes(Path(bench_dir) / "onset").round(4), paths[-1], "./holes calibration-report: the onset's "
