@@ -1363,16 +1363,26 @@ def response_surfaces(table: pd.DataFrame, fixed: dict | None = None) -> pd.Data
         ok = tested.dropna(subset=[r])
         terms = surface_terms(ok, fixed)
         varied = [t for t in SURFACE_TERMS if terms[t].nunique() > 1]
-        X = np.column_stack([np.ones(len(ok)), terms[varied].to_numpy(float)])
-        y = ok[r].to_numpy(float)
-        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-        resid = y - X @ coef
-        spread = np.sum((y - y.mean()) ** 2)
+        coef, r2, resid = least_squares_plane(terms[varied].to_numpy(float), ok[r].to_numpy(float))
         slopes = {t: 0.0 for t in SURFACE_TERMS} | dict(zip(varied, coef[1:]))
-        rows.append({"response": r, "intercept": coef[0], **slopes, "n": len(ok),
-                     "r2": 1 - np.sum(resid ** 2) / spread if spread > 0 else math.nan,
-                     "resid_sd": float(np.std(resid, ddof=X.shape[1])) if len(ok) > X.shape[1] else math.nan})
+        rows.append({"response": r, "intercept": coef[0], **slopes, "n": len(ok), "r2": r2,
+                     "resid_sd": float(np.std(resid, ddof=len(coef))) if len(ok) > len(coef) else math.nan})
     return pd.DataFrame(rows)
+
+
+def least_squares_plane(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+    """y fitted as a plane in X's columns (least squares): the intercept then a slope per column, R² (NaN where y
+    does not vary) and the residuals.
+
+    >>> coef, r2, _ = least_squares_plane(np.array([[0.0], [1.0], [2.0]]), np.array([1.0, 3.0, 5.0]))
+    >>> coef.round(6).tolist(), round(r2, 6)
+    ([1.0, 2.0], 1.0)
+    """
+    A = np.column_stack([np.ones(len(y)), X])
+    coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+    resid = y - A @ coef
+    spread = np.sum((y - y.mean()) ** 2)
+    return coef, float(1 - np.sum(resid ** 2) / spread) if spread > 0 else math.nan, resid
 
 
 def feasible_region(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, n: int = 200_000,

@@ -26,8 +26,9 @@ import pandas as pd
 from analysis.core.io import atomic_csv
 from analysis.core.schema import ROOT
 from analysis.core.soil_config import BENCH_DIR
-from analysis.soil.bench_calibration import (COLLAPSE_FLOORS, cone_path, cone_range, evaluation_id, load_config,
-                                             measured, scene_result, target_ranges)
+from analysis.soil.bench_calibration import (COLLAPSE_FLOORS, cone_path, cone_range, evaluation_id,
+                                             least_squares_plane, load_config, measured, scene_result,
+                                             target_ranges)
 
 CELL_CONFIG = ROOT / "configs/bench_calibration_cell.toml"
 ONSET_CONFIG = ROOT / "configs/bench_calibration_onset.toml"
@@ -58,10 +59,9 @@ def cell_evaluations(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> pd.Data
 def plane(table: pd.DataFrame, response: str) -> tuple[np.ndarray, float]:
     """Least-squares plane of `response` in TERMS (the bond in kPa): intercept then a slope per term, and R²."""
     ok = table.dropna(subset=[response])
-    X = np.column_stack([np.ones(len(ok)), *[ok[t].fillna(0.0) / SCALE.get(t, 1.0) for t in TERMS]])
-    coef, *_ = np.linalg.lstsq(X, ok[response].to_numpy(float), rcond=None)
-    resid = ok[response] - X @ coef
-    return coef, float(1 - np.sum(resid ** 2) / np.sum((ok[response] - ok[response].mean()) ** 2))
+    X = np.column_stack([ok[t].fillna(0.0) / SCALE.get(t, 1.0) for t in TERMS])
+    coef, r2, _ = least_squares_plane(X, ok[response].to_numpy(float))
+    return coef, r2
 
 
 def planes(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> tuple[dict, int]:
