@@ -259,3 +259,13 @@ def test_the_floors_grains_touch_in_a_close_packed_lattice_within_the_floor():
     assert gaps.min() == pytest.approx(2 * r)
     touching = (np.abs(gaps - 2 * r) < 1e-9).sum(axis=1)
     assert touching.max() == 6 and np.median(touching) == 6
+
+
+def test_the_onset_config_shears_every_soil_in_the_cell_on_the_grains_floor():
+    """Loam's and sand's onset filters take the cell and the grains floor as clay's does, each with its own prior."""
+    onset_cfg = bench.ROOT / "configs/bench_calibration_onset.toml"
+    cfgs = {s: bench.load_config(onset_cfg, soil=s) for s in ("clay", "loam", "sand")}
+    assert {c["shear_test"] for c in cfgs.values()} == {"cell"}
+    assert {c["collapse_floor"] for c in cfgs.values()} == {"grains"}
+    assert cfgs["sand"]["bounds"]["pressed_adhesion"][1] <= 0.1 < cfgs["loam"]["bounds"]["pressed_adhesion"][1]
+    assert len({tuple(sorted(c["bounds"].items())) for c in cfgs.values()}) == 3
