@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.core.cli_types import folder, option  # noqa: E402
 from analysis.core.schema import ROOT, ConfigError, Field  # noqa: E402
 from analysis.core.io import atomic_write  # noqa: E402
-from analysis.soil.collapse import slope_angle  # noqa: E402
+from analysis.soil.collapse import FLOORS, slope_angle  # noqa: E402
 
 RUNOUT_LENGTHS = 4.0           # the floor beyond the gate, in column lengths (room for a low-damping heap's toe)
 STILL_SPEED = 0.01             # m/s: the collapse is over when STILL_SHARE of the grains move slower
@@ -35,7 +35,6 @@ STILL_SHARE = 0.99             # (a few grains rolling away on the floor do not 
 MAX_TIME_FIELD = Field(0.5, 30.0, unit="s", meaning="the longest a collapse may run")
 MIN_TIME = 0.3                 # s before the stillness is checked (the gate's opening takes a few ms)
 MAX_TIME = 3.0                 # s: a column still moving by then is reported as such, never as a slope (--max-time)
-FLOORS = ("plane", "grains")   # --floor: the floor's roughness, its own friction or its grains'
 
 
 def run(bed_path: Path, soil_name: str, threads: int = 1, overrides: dict | None = None, quiet: bool = False,

@@ -31,6 +31,7 @@ from analysis.core.io import atomic_csv, atomic_write, say, shown
 from analysis.core.runner import run_logged
 from analysis.core.schema import ROOT, ConfigError, digest
 from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS
+from analysis.soil.collapse import FLOORS
 from analysis.soil.shear import READING, fit_tests
 
 CONFIG = ROOT / "configs/bench_calibration.toml"
@@ -39,7 +40,6 @@ RESPONSES = ("c_kpa", "phi_deg", "collapse_deg")
 SHEAR_RESPONSES = ("c_kpa", "phi_deg")    # the shear box's: what its size check moves
 UNTESTABLE = 3         # a bench scene's exit code when it stopped the test itself (scripts/shear.py, scripts/collapse.py)
 SCENES_VERSION = 3     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
-COLLAPSE_FLOORS = ("plane", "grains")   # the collapse column's floor ([bench] collapse_floor; scripts/collapse.py --floor)
 
 
 def laid_over(path: Path, seen: tuple = ()) -> dict:
@@ -147,9 +147,9 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
         raise ConfigError(f"{path}: bench.shear_test = {bench.get('shear_test')!r}: allowed \"box\" (the direct shear "
                           "box) or \"cell\" (the wall-free simple shear cell, at the first of cell_edges_mm, which it "
                           "needs)")
-    if bench.get("collapse_floor", "plane") not in COLLAPSE_FLOORS:
+    if bench.get("collapse_floor", "plane") not in FLOORS:
         raise ConfigError(f"{path}: bench.collapse_floor = {bench['collapse_floor']!r}: allowed "
-                          f"{' or '.join(repr(f) for f in COLLAPSE_FLOORS)} (scripts/collapse.py --floor)")
+                          f"{' or '.join(repr(f) for f in FLOORS)} (scripts/collapse.py --floor)")
     if soil is not None:
         bounds.update(per_soil.get(soil, {}))
     if len(bounds) < 3:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+FLOORS = ("plane", "grains")   # the column's floor (scripts/collapse.py --floor): its own friction, or fixed grains
 SLOPE_BAND = (0.2, 0.8)        # the slope runs between where the surface falls below these shares of its crest
 
 

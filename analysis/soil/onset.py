@@ -26,7 +26,8 @@ import pandas as pd
 from analysis.core.io import atomic_csv
 from analysis.core.schema import ROOT
 from analysis.core.soil_config import BENCH_DIR
-from analysis.soil.bench_calibration import (COLLAPSE_FLOORS, cone_path, cone_range, evaluation_id,
+from analysis.soil.collapse import FLOORS
+from analysis.soil.bench_calibration import (cone_path, cone_range, evaluation_id,
                                              least_squares_plane, load_config, measured, scene_result,
                                              target_ranges)
 
@@ -144,7 +145,7 @@ def filter_evaluations(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFram
         fit = fit_tests(cell["tests"]) if cell else {}
         failed = row.get("failed") if isinstance(row.get("failed"), str) else ""
         cfg, params = load_config(config, row["soil"]), {k: row[k] for k in TERMS}
-        floor = next(f for f in COLLAPSE_FLOORS                 # the floor its id was drawn with
+        floor = next(f for f in FLOORS                 # the floor its id was drawn with
                      if evaluation_id(row["soil"], row["seed"], params, {**cfg, "collapse_floor": f}) == row["id"])
         cone, _ = cone_path(row["soil"], params, cfg, folder)
         rows.append({"soil": row["soil"], "id": row["id"], "seed": row["seed"], "floor": floor,
