@@ -38,6 +38,27 @@ def fake_cell(soil: str, edge: int, seed: int, c: float, phi: float, overrides: 
             "tests": tests}
 
 
+def fake_scenes(ran: dict, c: float, phi: float):
+    """A stand-in for the bench scenes' process runner: the cell writes a result file whose peaks lie on
+    τ = c + σ tan φ, with its fit as the cell's file has it, the collapse a 45° heap; `ran` maps each scene run to
+    its command, in the order they ran."""
+    from pathlib import Path
+    from analysis.soil import shear
+
+    def fake(cmd, sink):
+        scene, folder = Path(cmd[1]).stem, Path(cmd[cmd.index("--out") + 1])
+        ran[scene] = cmd
+        if scene == "collapse":
+            heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
+            (folder / "column.json").write_text(json.dumps({"profile_mm": heap}))
+            return 0, json.dumps({"runout_mm": 100.0})
+        result = fake_cell("clay", 120, 1, c, phi, {})
+        result.update(shear.fit_tests(result["tests"]))
+        (folder / "cell.json").write_text(json.dumps(result))
+        return 0, json.dumps(shear.fit_tests(result["tests"]))
+    return fake
+
+
 def test_the_size_check_runs_each_cell_once_and_reads_only_the_posteriors_runs(tmp_path, monkeypatch):
     """Each edge and packing runs once with the posterior's overrides (a finished one is not run again); another
     set's run in the folder is not read; the grown cell's shift under the packings' SD passes and the verdict is
@@ -105,27 +126,14 @@ def test_a_cohesionless_cell_reads_no_cohesion_and_a_friction_angle_that_grows_w
 def test_the_filter_takes_the_cell_as_its_shear_test_where_the_bench_says_so(tmp_path, monkeypatch):
     """[bench] shear_test = "cell": an evaluation runs scripts/simple_shear.py at the first cell edge (no box speed),
     fits its peaks at σzz, and is named apart from the box's evaluation of the same set; a bad shear_test is refused."""
-    from pathlib import Path
     from analysis.core import runner
-    from analysis.soil import shear
     cfg = bench.load_config()
     params = {"normal_cohesion": 9e4, "friction_deg": 9.0, "pressed_adhesion": 0.1, "rolling_friction": 0.3,
               "damping": 0.1}
     celled = {**cfg, "shear_test": "cell"}
     assert bench.evaluation_id("clay", 1, params, cfg) != bench.evaluation_id("clay", 1, params, celled)
     ran = {}
-
-    def fake(cmd, sink):
-        scene, folder = Path(cmd[1]).stem, Path(cmd[cmd.index("--out") + 1])
-        ran[scene] = cmd
-        if scene == "collapse":
-            heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
-            (folder / "column.json").write_text(json.dumps({"profile_mm": heap}))
-            return 0, json.dumps({"runout_mm": 100.0})
-        result = fake_cell("clay", 120, 1, 7.0, 25.0, {})
-        (folder / "cell.json").write_text(json.dumps(result))
-        return 0, json.dumps(shear.fit_tests(result["tests"]))
-    monkeypatch.setattr(runner, "run_process", fake)
+    monkeypatch.setattr(runner, "run_process", fake_scenes(ran, 7.0, 25.0))
     row = bench.evaluate("clay", 1, params, celled, tmp_path)
     assert set(ran) == {"simple_shear", "collapse"} and "--speed" not in ran["simple_shear"]
     assert ran["simple_shear"][ran["simple_shear"].index("--size") + 1] == "120"
@@ -210,35 +218,21 @@ def test_a_column_on_fixed_grains_is_named_apart_and_reuses_the_plane_evaluation
     """[bench] collapse_floor = "grains" (the onset config's): the evaluation is named apart from the plane's, which
     keeps its id; it reads the cell back from the plane's evaluation of the same set and packing and runs only the
     collapse test, on the grains; a floor that is not one of the two is refused naming the key."""
-    from pathlib import Path
     from analysis.core import runner
-    from analysis.soil import shear
     cfg = bench.load_config(bench.ROOT / "configs/bench_calibration_onset.toml", soil="clay")
     plane = {**cfg, "collapse_floor": "plane"}
     assert cfg["collapse_floor"] == "grains"
     assert bench.evaluation_id("clay", 1, PARAMS, plane) == bench.evaluation_id(
         "clay", 1, PARAMS, {k: v for k, v in cfg.items() if k != "collapse_floor"})
     assert bench.evaluation_id("clay", 1, PARAMS, cfg) != bench.evaluation_id("clay", 1, PARAMS, plane)
-    ran = []
-
-    def fake(cmd, sink):
-        scene, folder = Path(cmd[1]).stem, Path(cmd[cmd.index("--out") + 1])
-        ran.append(cmd)
-        if scene == "collapse":
-            heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
-            (folder / "column.json").write_text(json.dumps({"profile_mm": heap}))
-            return 0, json.dumps({"runout_mm": 100.0})
-        result = fake_cell("clay", 120, 1, 21.0, 26.0, {})
-        result.update(shear.fit_tests(result["tests"]))       # as the cell's file has its fit
-        (folder / "cell.json").write_text(json.dumps(result))
-        return 0, json.dumps(shear.fit_tests(result["tests"]))
-    monkeypatch.setattr(runner, "run_process", fake)
+    ran = {}
+    monkeypatch.setattr(runner, "run_process", fake_scenes(ran, 21.0, 26.0))
     bench.evaluate("clay", 1, PARAMS, plane, tmp_path)
-    assert [Path(c[1]).stem for c in ran] == ["simple_shear", "collapse"]
-    assert ran[1][ran[1].index("--floor") + 1] == "plane"
+    assert list(ran) == ["simple_shear", "collapse"]
+    assert ran["collapse"][ran["collapse"].index("--floor") + 1] == "plane"
     ran.clear()
     row = bench.evaluate("clay", 1, PARAMS, cfg, tmp_path)
-    assert [Path(c[1]).stem for c in ran] == ["collapse"] and ran[0][ran[0].index("--floor") + 1] == "grains"
+    assert list(ran) == ["collapse"] and ran["collapse"][ran["collapse"].index("--floor") + 1] == "grains"
     assert row["resumed"] == "shear (a twin's)" and row["c_kpa"] == pytest.approx(21.0)
     (tmp_path / "bench_calibration.toml").write_text(bench.CONFIG.read_text())
     (tmp_path / "v.toml").write_text('base = "bench_calibration.toml"\n[bench]\ncollapse_floor = "ice"\n')

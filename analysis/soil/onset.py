@@ -138,13 +138,15 @@ def filter_evaluations(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFram
     slope and why it failed, if it did; the cone index where it ran (`config`'s cone, kept in `folder`/cone/)."""
     from analysis.soil.collapse import profile_angle
     from analysis.soil.shear import fit_tests
-    rows = []
+    rows, cfgs = [], {}
     for done in sorted(Path(folder).glob("*/*/responses.json")):
         row, here = json.loads(done.read_text()), done.parent
         cell, column = scene_result(here, "shear"), scene_result(here, "collapse")
         fit = fit_tests(cell["tests"]) if cell else {}
         failed = row.get("failed") if isinstance(row.get("failed"), str) else ""
-        cfg, params = load_config(config, row["soil"]), {k: row[k] for k in TERMS}
+        if row["soil"] not in cfgs:                             # the config read once a soil
+            cfgs[row["soil"]] = load_config(config, row["soil"])
+        cfg, params = cfgs[row["soil"]], {k: row[k] for k in TERMS}
         floor = next(f for f in FLOORS                 # the floor its id was drawn with
                      if evaluation_id(row["soil"], row["seed"], params, {**cfg, "collapse_floor": f}) == row["id"])
         cone, _ = cone_path(row["soil"], params, cfg, folder)
