@@ -33,6 +33,19 @@ def test_the_single_tests_are_read_with_their_commands_and_a_column_still_moving
     assert bool(t.loc["b", "still_moving"]) and np.isnan(t.loc["b", "angle_deg"])
 
 
+def test_a_cones_grains_size_speed_and_bond_are_read_from_its_command(tmp_path):
+    """A cone's --cohesion is both bonds unless a --test-set names one; its grains, scale and speed are columns."""
+    d = tmp_path / "held" / "cone" / "F1-r6"
+    d.mkdir(parents=True)
+    (d / "command").write_text("./holes cone --soil clay --resolution medium --cone-scale 4.4 --cone-speed 0.1 "
+                               "--cohesion 64979.12 --test-set shear_cohesion=5e4 --test-set pressed_adhesion=0.25")
+    (d / "r.json").write_text(json.dumps({"cone_index_pa": 485702.1}))
+    row = onset.probes(tmp_path).set_index("name").loc["F1-r6"]
+    assert (row.resolution, row.cone_scale, row.cone_speed) == ("medium", 4.4, 0.1)
+    assert (row.normal_cohesion, row.shear_cohesion, row.pressed_adhesion) == (64979.12, 5e4, 0.25)
+    assert row.cone_kpa == pytest.approx(485.7021)
+
+
 def test_the_filters_evaluations_are_read_with_their_floor_and_a_failed_columns_cell(tmp_path):
     """One evaluation on the grains that finished, one on the plane whose column was still moving: each row names its
     floor, c and φ come from the cell in both, the slope from the finished column only, the failure's reason kept."""
@@ -53,8 +66,10 @@ def test_the_filters_evaluations_are_read_with_their_floor_and_a_failed_columns_
             (d / "column.json").write_text(json.dumps({"profile_mm": heap, "floor": floor}))
         (d / "responses.json").write_text(json.dumps({"id": name, "soil": "clay", "seed": 1, **params,
                                                       **({"failed": failed} if failed else {})}))
+    (tmp_path / "clay-probes.csv").write_text(f"# a probe\nid,c_kpa\n{ids['plane']},20\n")
     t = onset.filter_evaluations(tmp_path).set_index("floor")
     assert t.loc["grains", "id"] == ids["grains"] and t.loc["plane", "id"] == ids["plane"]
+    assert t["probe"].to_dict() == {"grains": False, "plane": True}
     assert t["c_kpa"].to_numpy() == pytest.approx([20, 20], abs=1e-6)
     assert t.loc["grains", "collapse_deg"] == pytest.approx(45.0, abs=1.0) and np.isnan(t.loc["plane", "collapse_deg"])
     assert t.loc["plane", "failed"].startswith("1 % of the grains") and t.loc["grains", "failed"] == ""

@@ -9,8 +9,8 @@ with the collapse slope's α term taken out, the heap the onset is for.
 `probes`: the onset's single tests (results/calibration/bench/onset/<law>/<test>/<name>/, each run as
 scripts/collapse.py, simple_shear.py or cone.py with --test-set items, listed in that folder's README): one row
 each with its parameters and reading.
-`filter_evaluations`: the onset filter's finished evaluations (bench/onset-filter/), one row each, before the filter
-has drawn its iteration's table.
+`filter_evaluations`: the finished evaluations in the onset filter's folder (bench/onset-filter/: the filter's and
+--probe's), one row each, before the filter has drawn its iteration's table.
 Writes onset-reach.csv, onset-planes.csv, onset/probes.csv and onset-filter/evaluations.csv in
 results/calibration/bench/.
 """
@@ -35,6 +35,9 @@ CELL_CONFIG = ROOT / "configs/bench_calibration_cell.toml"
 ONSET_CONFIG = ROOT / "configs/bench_calibration_onset.toml"
 TERMS = ("normal_cohesion", "friction_deg", "pressed_adhesion", "rolling_friction", "damping", "bond_stretch")
 SCALE = {"normal_cohesion": 1e3}          # the bond in kPa in the planes
+# a test's scene options kept in its row, each with its type: a cone's grains, size and speed
+OPTIONS = {"--resolution": ("resolution", str), "--cone-scale": ("cone_scale", float),
+           "--cone-speed": ("cone_speed", float)}
 TESTS = {"collapse": ("angle_deg", "height_ratio", "runout_mm"), "cell": ("c_kpa", "phi_deg"),
          "cone": ("cone_index_pa",)}
 
@@ -110,14 +113,19 @@ def reach(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
 
 def probes(folder: Path = BENCH_DIR / "onset") -> pd.DataFrame:
     """The onset's single tests, one row each: the law (the folder: impacts, held, no-readhesion), the test, the name,
-    the --test-set parameters of the command it ran (its `command` file) and its reading; a collapse that had not
-    come to rest by its time limit reads NaN with `still_moving`."""
+    the --test-set parameters of the command it ran (its `command` file; a cone's --cohesion as both bonds), its
+    OPTIONS, and its reading; a collapse that had not come to rest by its time limit reads NaN with `still_moving`."""
     rows = []
     for test_dir in sorted(Path(folder).glob("*/*/*")):
         law, test, name = test_dir.relative_to(folder).parts
         words = (test_dir / "command").read_text().split()
         row = {"law": law, "test": test, "name": name,
+               **{column: kind(words[i + 1]) for i, w in enumerate(words) for option, (column, kind) in OPTIONS.items()
+                  if w == option},
                **{k: float(v) for k, v in (words[i + 1].split("=") for i, w in enumerate(words) if w == "--test-set")}}
+        if "--cohesion" in words:                      # the cone's --cohesion: both bonds, a --test-set of either wins
+            for key in ("normal_cohesion", "shear_cohesion"):
+                row.setdefault(key, float(words[words.index("--cohesion") + 1]))
         result = next((json.loads(p.read_text()) for p in sorted(test_dir.glob("*.json"))), None)
         if result is None:
             row["still_moving"] = "still move" in next(test_dir.glob("*.log")).read_text()
@@ -133,12 +141,14 @@ def probes(folder: Path = BENCH_DIR / "onset") -> pd.DataFrame:
 
 
 def filter_evaluations(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFrame:
-    """Every evaluation the onset filter has finished (`folder`/<soil>/*/responses.json), one row each: its id, the
-    collapse column's floor, the parameters, c and φ from its cell (read where the column failed too), the collapse
-    slope and why it failed, if it did; the cone index where it ran (`config`'s cone, kept in `folder`/cone/)."""
+    """Every evaluation finished in the onset filter's folder (`folder`/<soil>/*/responses.json), the filter's and the
+    chosen sets' of `--probe` (`probe`: its id in `folder`/<soil>-probes.csv), one row each: its id, the collapse
+    column's floor, the parameters, c and φ from its cell (read where the column failed too), the collapse slope and
+    why it failed, if it did; the cone index where it ran (`config`'s cone, kept in `folder`/cone/)."""
     from analysis.soil.collapse import profile_angle
     from analysis.soil.shear import fit_tests
     rows, cfgs = [], {}
+    probed = set().union(*(pd.read_csv(p, comment="#")["id"] for p in Path(folder).glob("*-probes.csv")))
     for done in sorted(Path(folder).glob("*/*/responses.json")):
         row, here = json.loads(done.read_text()), done.parent
         cell, column = scene_result(here, "shear"), scene_result(here, "collapse")
@@ -150,7 +160,8 @@ def filter_evaluations(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFram
         floor = next(f for f in FLOORS                 # the floor its id was drawn with
                      if evaluation_id(row["soil"], row["seed"], params, {**cfg, "collapse_floor": f}) == row["id"])
         cone, _ = cone_path(row["soil"], params, cfg, folder)
-        rows.append({"soil": row["soil"], "id": row["id"], "seed": row["seed"], "floor": floor,
+        rows.append({"soil": row["soil"], "id": row["id"], "seed": row["seed"], "probe": row["id"] in probed,
+                     "floor": floor,
                      **{k: row[k] for k in TERMS}, "c_kpa": fit.get("c_kpa", math.nan),
                      "phi_deg": fit.get("phi_deg", math.nan),
                      "collapse_deg": profile_angle(column["profile_mm"]) if column else math.nan,
@@ -171,8 +182,8 @@ def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
     if (Path(bench_dir) / "onset-filter").is_dir():
         paths.append(Path(bench_dir) / "onset-filter" / "evaluations.csv")
         atomic_csv(filter_evaluations(Path(bench_dir) / "onset-filter").round(4), paths[-1], "./holes "
-                   "calibration-report: the onset filter's finished evaluations, whichever iteration "
-                   "(configs/bench_calibration_onset.toml; analysis/soil/onset.py)")
+                   "calibration-report: the finished evaluations of the onset filter, whichever iteration, and of "
+                   "--probe (configs/bench_calibration_onset.toml; analysis/soil/onset.py)")
     if (Path(bench_dir) / "onset").is_dir():
         paths.append(Path(bench_dir) / "onset" / "probes.csv")
         atomic_csv(probes(Path(bench_dir) / "onset").round(4), paths[-1], "./holes calibration-report: the onset's "
