@@ -46,6 +46,24 @@ def test_a_cones_grains_size_speed_and_bond_are_read_from_its_command(tmp_path):
     assert row.cone_kpa == pytest.approx(485.7021)
 
 
+def test_one_sets_cones_are_pooled_by_cone_to_grain_ratio_and_compared_by_welch():
+    """Repeats that differ in the bond's last digits group together; another set, and a slow cone, stay out."""
+    f1 = dict(zip(onset.TERMS, (64979.12, 6.4804, 0.2485, 0.3805, 0.189, 0.4176)))
+    rows = [{**f1, "normal_cohesion": b, "cone_to_particle": 2.41, "cone_kpa": v, "name": f"a{i}"}
+            for i, (b, v) in enumerate(((64979.12, 540), (64990, 550), (64980, 530)))]
+    rows += [{**f1, "cone_to_particle": g, "cone_kpa": v, "name": f"b{i}"}
+             for i, (g, v) in enumerate(((3.21, 480), (4.70, 490), (3.21, 485)))]
+    rows += [{**f1, "cone_to_particle": 3.21, "cone_kpa": 900, "name": "slow", "cone_speed": 0.1},
+             {**f1, "pressed_adhesion": 0.0, "cone_to_particle": 2.41, "cone_kpa": 280, "name": "other"}]
+    t = pd.DataFrame([{"test": "cone", "cone_speed": 0.5, **r} for r in rows])
+    r = onset.cone_ratio(t).set_index("grains_across")
+    assert list(r.index) == ["2.41", ">= 3.2"] and list(r["n"]) == [3, 3]
+    assert r.loc["2.41", "mean_kpa"] == pytest.approx(540) and r.loc[">= 3.2", "mean_kpa"] == pytest.approx(485)
+    assert r.loc[">= 3.2", "minus_smallest_kpa"] == pytest.approx(-55)
+    assert r.loc[">= 3.2", "lo_kpa"] < -55 < r.loc[">= 3.2", "hi_kpa"] < 0 and r.loc[">= 3.2", "welch_p"] < 0.05
+    assert r.loc[">= 3.2", "ratio_of_means"] == pytest.approx(485 / 540)
+
+
 def test_the_filters_evaluations_are_read_with_their_floor_and_a_failed_columns_cell(tmp_path):
     """One evaluation on the grains that finished, one on the plane whose column was still moving: each row names its
     floor, c and φ come from the cell in both, the slope from the finished column only, the failure's reason kept."""

@@ -11,8 +11,9 @@ scripts/collapse.py, simple_shear.py or cone.py with --test-set items, listed in
 each with its parameters and reading.
 `filter_evaluations`: the finished evaluations in the onset filter's folder (bench/onset-filter/: the filter's and
 --probe's), one row each, before the filter has drawn its iteration's table.
-Writes onset-reach.csv, onset-planes.csv, onset/probes.csv and onset-filter/evaluations.csv in
-results/calibration/bench/.
+`cone_ratio`: one set's cones by cone-to-grain ratio, the smallest against the pooled larger ones.
+Writes onset-reach.csv, onset-planes.csv, onset/probes.csv, onset/cone-ratio.csv and onset-filter/evaluations.csv
+in results/calibration/bench/.
 """
 from __future__ import annotations
 
@@ -39,7 +40,8 @@ SCALE = {"normal_cohesion": 1e3}          # the bond in kPa in the planes
 OPTIONS = {"--resolution": ("resolution", str), "--cone-scale": ("cone_scale", float),
            "--cone-speed": ("cone_speed", float)}
 TESTS = {"collapse": ("angle_deg", "height_ratio", "runout_mm"), "cell": ("c_kpa", "phi_deg"),
-         "cone": ("cone_index_pa",)}
+         "cone": ("cone_index_pa", "cone_to_particle")}
+RATIO_POOLED = 3.2         # cones this many grains across or more read alike (bench/onset/README.md): pooled
 
 
 def cell_evaluations(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
@@ -170,8 +172,42 @@ def filter_evaluations(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFram
     return pd.DataFrame(rows)
 
 
+def cone_ratio(table: pd.DataFrame, pooled: float = RATIO_POOLED) -> pd.DataFrame:
+    """The single tests' cones of one set at 0.5 m/s (`table`, probes(): every parameter alike to three significant
+    figures, so readings that differ only in the last digits are repeats) by cone-to-grain ratio: one row for the
+    smallest ratio and one for every ratio of `pooled` or more together, each with its readings, mean and SD; the
+    pooled row also with Welch's difference from the smallest ratio's mean (95 % interval, p) and the ratio of the
+    means. Sets without two cones at each are left out."""
+    from scipy import stats
+    cones = table[(table["test"] == "cone") & (table["cone_speed"] == 0.5)].copy()
+    keys = [f"{t}_3sf" for t in TERMS]
+    for t, k in zip(TERMS, keys):
+        cones[k] = [float(f"{v:.3g}") for v in cones[t]]
+    rows = []
+    for _, group in cones.groupby(keys):
+        low = group[group["cone_to_particle"] == group["cone_to_particle"].min()]
+        high = group[group["cone_to_particle"] >= pooled]
+        if low.empty or high.empty or len(low) < 2 or len(high) < 2:
+            continue
+        a, b = low["cone_kpa"].to_numpy(), high["cone_kpa"].to_numpy()
+        va, vb = a.var(ddof=1) / len(a), b.var(ddof=1) / len(b)
+        df = (va + vb) ** 2 / (va ** 2 / (len(a) - 1) + vb ** 2 / (len(b) - 1))
+        half = stats.t.ppf(0.975, df) * math.sqrt(va + vb)
+        welch = stats.ttest_ind(b, a, equal_var=False)
+        base = {t: group[k].iloc[0] for t, k in zip(TERMS, keys)}
+        for part, x, label in ((low, a, f"{low['cone_to_particle'].iloc[0]:.2f}"), (high, b, f">= {pooled:g}")):
+            rows.append({**base, "grains_across": label, "n": len(x), "names": " ".join(part["name"]),
+                         "readings_kpa": " ".join(f"{v:.1f}" for v in x), "mean_kpa": x.mean(),
+                         "sd_kpa": x.std(ddof=1)})
+        diff = b.mean() - a.mean()
+        rows[-1].update({"minus_smallest_kpa": diff, "lo_kpa": diff - half, "hi_kpa": diff + half,
+                         "welch_p": welch.pvalue, "ratio_of_means": b.mean() / a.mean()})
+    return pd.DataFrame(rows)
+
+
 def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
-    """onset-reach.csv and onset/probes.csv in `bench_dir`, where their inputs exist."""
+    """onset-reach.csv, onset-planes.csv, onset-filter/evaluations.csv, onset/probes.csv and onset/cone-ratio.csv in
+    `bench_dir`, where their inputs exist."""
     paths = []
     if (Path(bench_dir) / "cell-filter" / "clay").is_dir():
         paths += [Path(bench_dir) / "onset-reach.csv", Path(bench_dir) / "onset-planes.csv"]
@@ -185,7 +221,10 @@ def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
                    "calibration-report: the finished evaluations of the onset filter, whichever iteration, and of "
                    "--probe (configs/bench_calibration_onset.toml; analysis/soil/onset.py)")
     if (Path(bench_dir) / "onset").is_dir():
-        paths.append(Path(bench_dir) / "onset" / "probes.csv")
-        atomic_csv(probes(Path(bench_dir) / "onset").round(4), paths[-1], "./holes calibration-report: the onset's "
-                   "single tests (results/calibration/bench/onset/README.md)")
+        paths += [Path(bench_dir) / "onset" / "probes.csv", Path(bench_dir) / "onset" / "cone-ratio.csv"]
+        table = probes(Path(bench_dir) / "onset")
+        atomic_csv(table.round(4), paths[-2], "./holes calibration-report: the onset's single tests "
+                   "(results/calibration/bench/onset/README.md)")
+        atomic_csv(cone_ratio(table).round(4), paths[-1], "./holes calibration-report: one set's cones by "
+                   f"cone-to-grain ratio, the smallest against {RATIO_POOLED:g} or more (Welch; analysis/soil/onset.py)")
     return paths
