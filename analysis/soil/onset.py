@@ -28,7 +28,7 @@ from analysis.core.io import atomic_csv
 from analysis.core.schema import ROOT
 from analysis.core.soil_config import BENCH_DIR
 from analysis.soil.collapse import FLOORS
-from analysis.soil.bench_calibration import (cone_path, cone_range, evaluation_id,
+from analysis.soil.bench_calibration import (cone_path, cone_range, difference_interval, evaluation_id,
                                              least_squares_plane, load_config, measured, scene_result,
                                              target_ranges)
 
@@ -122,8 +122,7 @@ def probes(folder: Path = BENCH_DIR / "onset") -> pd.DataFrame:
         law, test, name = test_dir.relative_to(folder).parts
         words = (test_dir / "command").read_text().split()
         row = {"law": law, "test": test, "name": name,
-               **{column: kind(words[i + 1]) for i, w in enumerate(words) for option, (column, kind) in OPTIONS.items()
-                  if w == option},
+               **{OPTIONS[w][0]: OPTIONS[w][1](words[i + 1]) for i, w in enumerate(words) if w in OPTIONS},
                **{k: float(v) for k, v in (words[i + 1].split("=") for i, w in enumerate(words) if w == "--test-set")}}
         if "--cohesion" in words:                      # the cone's --cohesion: both bonds, a --test-set of either wins
             for key in ("normal_cohesion", "shear_cohesion"):
@@ -187,20 +186,17 @@ def cone_ratio(table: pd.DataFrame, pooled: float = RATIO_POOLED) -> pd.DataFram
     for _, group in cones.groupby(keys):
         low = group[group["cone_to_particle"] == group["cone_to_particle"].min()]
         high = group[group["cone_to_particle"] >= pooled]
-        if low.empty or high.empty or len(low) < 2 or len(high) < 2:
+        if len(low) < 2 or len(high) < 2:
             continue
         a, b = low["cone_kpa"].to_numpy(), high["cone_kpa"].to_numpy()
-        va, vb = a.var(ddof=1) / len(a), b.var(ddof=1) / len(b)
-        df = (va + vb) ** 2 / (va ** 2 / (len(a) - 1) + vb ** 2 / (len(b) - 1))
-        half = stats.t.ppf(0.975, df) * math.sqrt(va + vb)
+        diff, lo, hi = difference_interval(a, b)
         welch = stats.ttest_ind(b, a, equal_var=False)
         base = {t: group[k].iloc[0] for t, k in zip(TERMS, keys)}
         for part, x, label in ((low, a, f"{low['cone_to_particle'].iloc[0]:.2f}"), (high, b, f">= {pooled:g}")):
             rows.append({**base, "grains_across": label, "n": len(x), "names": " ".join(part["name"]),
                          "readings_kpa": " ".join(f"{v:.1f}" for v in x), "mean_kpa": x.mean(),
                          "sd_kpa": x.std(ddof=1)})
-        diff = b.mean() - a.mean()
-        rows[-1].update({"minus_smallest_kpa": diff, "lo_kpa": diff - half, "hi_kpa": diff + half,
+        rows[-1].update({"minus_smallest_kpa": diff, "lo_kpa": lo, "hi_kpa": hi,
                          "welch_p": welch.pvalue, "ratio_of_means": b.mean() / a.mean()})
     return pd.DataFrame(rows)
 
