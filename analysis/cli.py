@@ -136,9 +136,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "collapse test (and the cone, where the soil's cone_target is set) with GrainLearning "
                         "(configs/bench_calibration.toml, configs/field/soil_targets.csv) instead")
     p.add_argument("--config", default=None, metavar="TOML",
-                   help="with --bench: the bench settings (default configs/bench_calibration.toml; "
-                        "configs/bench_calibration_cell.toml: clay's filter in the wall-free cell, its tables in "
-                        "results/calibration/bench/cell-filter/)")
+                   help="with --bench: the bench settings (default configs/bench_calibration.toml, whose posterior "
+                        "goes to configs/soils/<soil>.toml [bench_posterior]; a variant such as "
+                        "configs/bench_calibration_onset.toml keeps its filter, the checks of its posterior and that "
+                        "posterior, as a soil config <soil>.toml, in its folder, e.g. "
+                        "results/calibration/bench/onset-filter/)")
     p.add_argument("--cones", type=evaluation_ids, default=None,
                    help="with --bench: no calibration; the cone check of these finished evaluations of the soil "
                         "(ids of results/calibration/bench/<soil>/, comma-separated), --workers at a time: the cone "

@@ -164,26 +164,33 @@ def cmd_compare(args) -> int:
         return 2
 
 
-def packings_checked(args, cfg: dict) -> dict:
-    """`calibrate --bench --check-packings`: the check on the packings of --seeds; the posterior's is recorded in
-    configs/soils/<soil>.toml [bench_posterior] too."""
+def calibrate_command(args) -> str:
+    """The `calibrate --bench` command that draws the soil's posterior under args' --config."""
+    return f"./holes calibrate --soil {args.soil} --bench" + (f" --config {args.config}" if args.config else "")
+
+
+def packings_checked(args, cfg: dict, out_dir: Path) -> dict:
+    """`calibrate --bench --check-packings`: the check on the packings of --seeds of the posterior (or deepest set) of
+    the filter kept in out_dir; the posterior's is recorded in its soil config's [bench_posterior] too
+    (`posterior_config`)."""
     from analysis.soil import bench_calibration as bench
     seeds = args.seeds or [1]
-    result = bench.check_packings(args.soil, seeds, cfg, which=args.check_packings)
+    result = bench.check_packings(args.soil, seeds, cfg, out_dir, which=args.check_packings)
     if args.check_packings == "posterior":
-        bench.record_packings(args.soil, result, seeds)
+        bench.record_packings(args.soil, result, seeds, out_dir, command=calibrate_command(args))
     return result
 
 
-def size_checked(args, cfg: dict):
-    """`calibrate --bench --size-check`: the shear box's or collapse column's (analysis/soil/bench_calibration.py),
-    or with `cell` the simple shear cell's (analysis/soil/cell.py) on --seeds (default [bench] check_seeds)."""
+def size_checked(args, cfg: dict, out_dir: Path):
+    """`calibrate --bench --size-check`: the shear box's or collapse column's (analysis/soil/bench_calibration.py) at
+    the posterior of the filter kept in out_dir, or with `cell` the simple shear cell's (analysis/soil/cell.py) at the
+    base calibration's posterior, on --seeds (default [bench] check_seeds)."""
     from analysis.soil import bench_calibration as bench
     if args.size_check == "cell":
         from analysis.soil import cell
         return cell.size_check(args.soil, cfg, args.seeds or [int(s) for s in cfg["check_seeds"]],
                                cfg["workers"]).round(2)
-    return bench.size_check(args.soil, cfg, box=args.size_check, seeds=args.seeds).round(2)
+    return bench.size_check(args.soil, cfg, out_dir, box=args.size_check, seeds=args.seeds).round(2)
 
 
 def bench_config(given: str | None) -> Path:
@@ -218,16 +225,17 @@ def cmd_calibrate_bench(args) -> int:
     if len(asked) > 1:
         print(f"calibrate: {', '.join(BENCH_CHECKS[:-1])} and {BENCH_CHECKS[-1]}: allowed one of them", file=sys.stderr)
         return 2
+    out_dir = bench.filter_dir(cfg)        # a variant config's filter and every check of its posterior: its folder
     if asked:
         import pandas as pd
-        checks = {"--size-check": lambda: size_checked(args, cfg),
-                  "--cones": lambda: bench.cones(args.soil, args.cones, cfg, workers=cfg["workers"],
+        checks = {"--size-check": lambda: size_checked(args, cfg, out_dir),
+                  "--cones": lambda: bench.cones(args.soil, args.cones, cfg, out_dir, workers=cfg["workers"],
                                                 runs_grains=args.runs_grains),
-                  "--probe": lambda: bench.probes(args.soil, args.probe, cfg, bench.filter_dir(cfg)),
-                  "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds or [1], cfg,
+                  "--probe": lambda: bench.probes(args.soil, args.probe, cfg, out_dir),
+                  "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds or [1], cfg, out_dir,
                                                                  workers=cfg["workers"]).round(2),
-                  "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg)).T,
-                  "--check-packings": lambda: pd.DataFrame(packings_checked(args, cfg)).T,
+                  "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg, out_dir)).T,
+                  "--check-packings": lambda: pd.DataFrame(packings_checked(args, cfg, out_dir)).T,
                   "--remeasure": lambda: pd.DataFrame({"remeasured": [str(p.relative_to(ROOT))
                                                                       for p in bench.remeasure(args.soil)]})}
         try:
@@ -241,17 +249,15 @@ def cmd_calibrate_bench(args) -> int:
         print(table.to_string(index=False))
         return 0
     try:
-        out_dir = bench.filter_dir(cfg)
         post = bench.calibrate(args.soil, cfg, out_dir)
         check = bench.check(args.soil, post, cfg, out_dir)
     except RuntimeError as e:
         print(f"calibrate {args.soil}: {e}", file=sys.stderr)
         return 1
-    command = f"./holes calibrate --soil {args.soil} --bench" + (f" --config {args.config}" if args.config else "")
-    bench.write_posterior(args.soil, post, check, command, folder=out_dir)
+    written = bench.write_posterior(args.soil, post, check, calibrate_command(args), folder=out_dir)
     bench.report()
     print(f"calibrate {args.soil}: the posterior mean on packings {', '.join(map(str, cfg['check_seeds']))}: "
-          f"{bench.check_status(check)} (configs/soils/{args.soil}.toml [bench_posterior])")
+          f"{bench.check_status(check)} ({written.relative_to(ROOT)} [bench_posterior])")
     print(json.dumps({"posterior": post["mean"], "interval": post["interval"], "check": check}))
     return 0
 

@@ -210,6 +210,34 @@ def test_the_onset_config_fixes_the_held_onset_in_its_own_folder_and_refuses_a_f
         bench.load_config(tmp_path / "v.toml")
 
 
+def test_a_variant_configs_checks_and_posterior_stay_in_its_folder(tmp_path, monkeypatch):
+    """Under a variant config the checks of the posterior read and write the variant filter's folder, and its
+    posterior goes into a copy of the soil config there: configs/soils/<soil>.toml, whose [bench_posterior] the runs
+    use, is left as it is."""
+    from analysis.cli import main
+    onset_cfg, folder = "configs/bench_calibration_onset.toml", bench.BENCH_DIR / "onset-filter"
+    seen = []
+    result = {"c_kpa": {"mean": 21.0, "mean_interval": [19.0, 23.0], "mean_verdict": "undecided"}}
+    monkeypatch.setattr(bench, "check_packings", lambda soil, seeds, cfg, out_dir, which: seen.append(out_dir) or result)
+    monkeypatch.setattr(bench, "record_packings", lambda *a, **k: seen.append((a[3], k["command"])))
+    assert main(["calibrate", "--soil", "clay", "--bench", "--config", onset_cfg, "--check-packings",
+                 "--seeds", "1,2,3"]) == 0
+    assert seen == [folder, (folder, f"./holes calibrate --soil clay --bench --config {onset_cfg}")]
+    soils = bench.ROOT / "configs/soils/clay.toml"
+    before = soils.read_text()
+    assert bench.posterior_config("clay") == soils and bench.posterior_config("clay", tmp_path) == tmp_path / "clay.toml"
+    post = {"names": ["friction_deg"], "mean": {"friction_deg": 6.1}, "interval": {"friction_deg": [5.0, 7.0]},
+            "correlation": {"friction_deg": {"friction_deg": 1.0}}, "fixed": {"adhesion_onset": 4.0e4}}
+    check = {"c_kpa": {"mean": 21.0, "sd": 1.0, "target": [20, 35], "every_packing_inside": True, "mean_inside": True}}
+    for _ in range(2):                                  # written again, it replaces its own table
+        written = bench.write_posterior("clay", post, check, "test", folder=tmp_path)
+    assert written == tmp_path / "clay.toml" and soils.read_text() == before
+    text = written.read_text()
+    assert text.count("[bench_posterior]") == 1 and "adhesion_onset = 40000" in text
+    head = bench.POSTERIOR_HEAD
+    assert text[:text.index(head)].rstrip() == before[:before.index(head)].rstrip()   # the soil config's own tables
+
+
 PARAMS = {"normal_cohesion": 9e4, "friction_deg": 6.0, "pressed_adhesion": 0.3, "rolling_friction": 0.2, "damping": 0.15,
           "bond_stretch": 0.4}
 

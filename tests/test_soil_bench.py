@@ -507,11 +507,12 @@ def test_workers_sets_how_many_bench_scenes_run_at_a_time_else_the_config_does(m
     workers. The size check grows the box it is told and checks the packings of --seeds, else the config's."""
     from analysis.cli import main
     seen = []
-    monkeypatch.setattr(bench, "size_check", lambda soil, cfg, box, seeds: seen.append((cfg["workers"], box, seeds))
-                        or pd.DataFrame())
+    monkeypatch.setattr(bench, "size_check", lambda soil, cfg, out_dir, box, seeds:
+                        seen.append((cfg["workers"], out_dir, box, seeds)) or pd.DataFrame())
     assert main(["calibrate", "--soil", "clay", "--bench", "--size-check", "--workers", "1"]) == 0
     assert main(["calibrate", "--soil", "clay", "--bench", "--size-check", "checks", "--seeds", "1,2"]) == 0
-    assert seen == [(1, "filter", None), (bench.load_config(soil="clay")["workers"], "checks", [1, 2])]
+    folder = bench.BENCH_DIR
+    assert seen == [(1, folder, "filter", None), (bench.load_config(soil="clay")["workers"], folder, "checks", [1, 2])]
 
 
 def test_the_cone_transfer_reads_the_posterior_cone_at_both_grain_sizes_on_each_packing(tmp_path, monkeypatch, capsys):

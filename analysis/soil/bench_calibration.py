@@ -1284,13 +1284,28 @@ def posterior_block(soil: str, post: dict, check_result: dict, command: str, pac
     return "\n".join(lines) + "\n"
 
 
+def posterior_config(soil: str, folder: Path = BENCH_DIR) -> Path:
+    """The soil config a filter's posterior is written into as its `[bench_posterior]`: configs/soils/<soil>.toml for
+    the filter of configs/bench_calibration.toml (folder BENCH_DIR: the posterior the presets' `soils = "bench"` run),
+    else <folder>/<soil>.toml, a copy of the soil's config beside a variant config's evaluations. A variant's posterior
+    (another shear test or contact law) so replaces none the runs use; copied over configs/soils/<soil>.toml, it is
+    adopted.
+
+    >>> [str(posterior_config("clay", f).relative_to(ROOT)) for f in (BENCH_DIR, BENCH_DIR / "onset-filter")]
+    ['configs/soils/clay.toml', 'results/calibration/bench/onset-filter/clay.toml']
+    """
+    folder = Path(folder)
+    return ROOT / "configs/soils" / f"{soil}.toml" if folder.resolve() == BENCH_DIR.resolve() else folder / f"{soil}.toml"
+
+
 def write_posterior(soil: str, post: dict, check_result: dict, command: str, path: Path | None = None,
                     packings: str | None = None, folder: Path = BENCH_DIR) -> Path:
-    """Put (or replace) the soil config's `[bench_posterior]` table, keeping the rest of the file as it is; the file
+    """Put (or replace) the `[bench_posterior]` table of the soil config `path` (default `posterior_config`), keeping
+    the rest of the file as it is (a path not yet written starts as a copy of configs/soils/<soil>.toml); the file
     must still load."""
     from analysis.core.soil_config import load_soil
-    path = path or ROOT / "configs/soils" / f"{soil}.toml"
-    text = path.read_text()
+    path = Path(path or posterior_config(soil, folder))
+    text = (path if path.exists() else ROOT / "configs/soils" / f"{soil}.toml").read_text()
     if POSTERIOR_HEAD in text:
         text = text[:text.index(POSTERIOR_HEAD)].rstrip("\n") + "\n"
     atomic_write(path, text + "\n" + posterior_block(soil, post, check_result, command, packings, folder))
@@ -1299,7 +1314,7 @@ def write_posterior(soil: str, post: dict, check_result: dict, command: str, pat
 
 
 def record_packings(soil: str, result: dict, seeds: list[int], out_dir: Path = BENCH_DIR,
-                    path: Path | None = None) -> Path:
+                    path: Path | None = None, command: str | None = None) -> Path:
     """The posterior's check on more packings written into the soil config's `[bench_posterior]` beside the filter's
     posterior (<out_dir>/<soil>-posterior.json) and its check on the check packings (<soil>-check.json), and where
     the checks' box grown by half ([bench] check_size_check_mm) has run on two packings or more, its shear box's
@@ -1315,8 +1330,8 @@ def record_packings(soil: str, result: dict, seeds: list[int], out_dir: Path = B
     cell = posterior_line(soil, out_dir)
     if cell:
         lines.append(cell)
-    return write_posterior(soil, post, three, f"./holes calibrate --soil {soil} --bench", path, "\n".join(lines),
-                           out_dir)
+    return write_posterior(soil, post, three, command or f"./holes calibrate --soil {soil} --bench", path,
+                           "\n".join(lines), out_dir)
 
 
 SURFACE_TERMS = ("bond_kpa", "friction_deg", "disturbed_bond_kpa", "rolling_friction", "damping", "pressed_adhesion")
