@@ -92,3 +92,32 @@ def test_the_filters_evaluations_are_read_with_their_floor_and_a_failed_columns_
     assert t.loc["grains", "collapse_deg"] == pytest.approx(45.0, abs=1.0) and np.isnan(t.loc["plane", "collapse_deg"])
     assert t.loc["plane", "failed"].startswith("1 % of the grains") and t.loc["grains", "failed"] == ""
     assert np.isnan(t["cone_kpa"]).all()
+
+
+def test_the_deepest_set_lies_as_many_residual_sds_inside_every_range_as_the_planes_allow():
+    """Made-up evaluations of known planes with scatter: the set `deepest` returns lies inside the bounds and
+    margin_sd residual SDs inside every range, and some range is met at exactly that depth (none deeper is possible);
+    ranges that cannot all be met inside the bounds give a negative margin. The cone is weighed times the transfer,
+    and a twin (the same set on the plane floor) counts once."""
+    rng = np.random.default_rng(3)
+    bounds = {"normal_cohesion": (6e4, 1.5e5), "friction_deg": (3.0, 10.0), "pressed_adhesion": (0.2, 0.6),
+              "rolling_friction": (0.15, 0.4), "damping": (0.1, 0.25), "bond_stretch": (0.2, 0.8)}
+    n = 30
+    t = pd.DataFrame({k: rng.uniform(lo, hi, n) for k, (lo, hi) in bounds.items()})
+    b, f, a, eta, d, st = (t[k] for k in onset.TERMS)
+    t["c_kpa"] = 2 + 0.05 * b / 1e3 + 20 * a + 15 * st - 20 * d + rng.normal(0, 1.0, n)
+    t["phi_deg"] = 16 + 0.7 * f + 5 * a + 4 * eta + rng.normal(0, 0.5, n)
+    t["collapse_deg"] = 18 + 1.5 * f + 8 * a + 16 * d + rng.normal(0, 0.8, n)
+    t["cone_kpa"] = (-450 + 4 * b / 1e3 + 50 * f + 450 * a + 500 * d + 200 * st + rng.normal(0, 20, n)) / 0.9
+    t["floor"] = "grains"
+    twin = t.iloc[[0]].assign(floor="plane", collapse_deg=np.nan)
+    ranges = {"c_kpa": (20, 35), "phi_deg": (20, 30), "collapse_deg": (30, 38), "cone_kpa": (382.5, 517.5)}
+    got = onset.deepest(pd.concat([t, twin], ignore_index=True), ranges, bounds, transfer=0.9)
+    assert got["n_c_kpa"] == n and got["n_collapse_deg"] == n and got["r2_cone_kpa"] > 0.9
+    assert all(lo <= got[k] <= hi for k, (lo, hi) in bounds.items())
+    m = got["margin_sd"]
+    assert m > 0
+    depth = [min(got[r] - lo, hi - got[r]) / got[f"resid_sd_{r}"] for r, (lo, hi) in ranges.items()]
+    assert min(depth) == pytest.approx(m, abs=1e-6)
+    assert 0.5 < got["resid_sd_cone_kpa"] / 20 < 1.6 and 0.5 < got["resid_sd_c_kpa"] < 1.6
+    assert onset.deepest(t, {**ranges, "c_kpa": (60, 70)}, bounds, transfer=0.9)["margin_sd"] < 0

@@ -12,8 +12,10 @@ each with its parameters and reading.
 `filter_evaluations`: the finished evaluations in the onset filter's folder (bench/onset-filter/: the filter's and
 --probe's), one row each, before the filter has drawn its iteration's table.
 `cone_ratio`: one set's cones by cone-to-grain ratio, the smallest against the pooled larger ones.
-Writes onset-reach.csv, onset-planes.csv, onset/probes.csv, onset/cone-ratio.csv and onset-filter/evaluations.csv
-in results/calibration/bench/.
+`deepest`: the onset filter's evaluations fitted as planes, and the set in its prior they put deepest inside every
+target, in the planes' residual SDs: where a probe looks next, not a posterior.
+Writes onset-reach.csv, onset-planes.csv, onset/probes.csv, onset/cone-ratio.csv, onset-filter/evaluations.csv and
+onset-filter/deepest.csv in results/calibration/bench/.
 """
 from __future__ import annotations
 
@@ -201,9 +203,62 @@ def cone_ratio(table: pd.DataFrame, pooled: float = RATIO_POOLED) -> pd.DataFram
     return pd.DataFrame(rows)
 
 
+RESPONSES = ("c_kpa", "phi_deg", "collapse_deg", "cone_kpa")
+
+
+def deepest(table: pd.DataFrame, ranges: dict, bounds: dict, transfer: float = 1.0) -> dict:
+    """The evaluations of `table` (`filter_evaluations`: each parameter set once, its collapse slope from a column on
+    the grains only) fitted as planes (`plane`) of c, φ, the collapse slope and the cone times `transfer` (the
+    config's cone transfer, as the filter weighs it), and the set inside `bounds` {term: (lo, hi)} the planes put
+    deepest inside every range {response: (lo, hi)}: the largest margin m such that each plane lies m of its residual
+    SDs (n − 7 degrees of freedom) inside its range (scipy's linear programme); a negative m, where the ranges do not
+    meet inside the bounds. Returns margin_sd, the parameters, each response's plane value there, its plane's R² and
+    residual SD and its evaluations."""
+    from scipy.optimize import linprog
+    sets = table.drop_duplicates(subset=list(TERMS))
+    grains = table[table["floor"] == "grains"].drop_duplicates(subset=list(TERMS))
+    coefs, fits = {}, {}
+    for r in RESPONSES:
+        t = (grains if r == "collapse_deg" else sets).dropna(subset=[r])
+        t = t.assign(cone_kpa=t["cone_kpa"] * transfer) if r == "cone_kpa" else t
+        X = np.column_stack([t[k] / SCALE.get(k, 1.0) for k in TERMS])
+        coef, r2, resid = least_squares_plane(X, t[r].to_numpy(float))
+        dof = len(t) - len(TERMS) - 1
+        if dof < 1:
+            raise ValueError(f"{r}: {len(t)} evaluations for a plane of {len(TERMS)} terms; allowed {len(TERMS) + 2} "
+                             "or more")
+        coefs[r] = coef
+        fits[r] = {"r2": r2, "resid_sd": float(np.sqrt(np.sum(resid ** 2) / dof)), "n": len(t)}
+    A, b = [], []
+    for r in RESPONSES:
+        lo, hi = ranges[r]
+        sd = fits[r]["resid_sd"]
+        A += [[*coefs[r][1:], sd], [*(-coefs[r][1:]), sd]]
+        b += [hi - coefs[r][0], coefs[r][0] - lo]
+    box = [tuple(v / SCALE.get(k, 1.0) for v in bounds[k]) for k in TERMS]
+    out = linprog([0.0] * len(TERMS) + [-1.0], A_ub=A, b_ub=b, bounds=box + [(None, None)])
+    x = out.x[:-1]
+    return {"margin_sd": float(out.x[-1]), **{k: float(v * SCALE.get(k, 1.0)) for k, v in zip(TERMS, x)},
+            **{r: float(coefs[r][0] + coefs[r][1:] @ x) for r in RESPONSES},
+            **{f"{key}_{r}": fits[r][key] for r in RESPONSES for key in ("r2", "resid_sd", "n")}}
+
+
+def deepest_table(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFrame:
+    """`deepest` of each soil with evaluations in the onset filter's folder, in its prior and against its targets
+    (the cone's Table 2 ± tolerance, its reading times the config's transfer)."""
+    table = filter_evaluations(folder, config)
+    rows = []
+    for soil, own in table.groupby("soil") if len(table) else []:
+        cfg = load_config(config, soil)
+        ranges = {**target_ranges(soil, cfg), "cone_kpa": cone_range(soil, cfg)}
+        rows.append({"soil": soil, "cone_transfer": float(cfg["cone_check"].get("transfer", 1.0)),
+                     **deepest(own, ranges, cfg["bounds"], float(cfg["cone_check"].get("transfer", 1.0)))})
+    return pd.DataFrame(rows)
+
+
 def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
-    """onset-reach.csv, onset-planes.csv, onset-filter/evaluations.csv, onset/probes.csv and onset/cone-ratio.csv in
-    `bench_dir`, where their inputs exist."""
+    """onset-reach.csv, onset-planes.csv, onset-filter/evaluations.csv and deepest.csv, onset/probes.csv and
+    onset/cone-ratio.csv in `bench_dir`, where their inputs exist."""
     paths = []
     if (Path(bench_dir) / "cell-filter" / "clay").is_dir():
         paths += [Path(bench_dir) / "onset-reach.csv", Path(bench_dir) / "onset-planes.csv"]
@@ -216,6 +271,11 @@ def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
         atomic_csv(filter_evaluations(Path(bench_dir) / "onset-filter").round(4), paths[-1], "./holes "
                    "calibration-report: the finished evaluations of the onset filter, whichever iteration, and of "
                    "--probe (configs/bench_calibration_onset.toml; analysis/soil/onset.py)")
+        paths.append(Path(bench_dir) / "onset-filter" / "deepest.csv")
+        atomic_csv(deepest_table(Path(bench_dir) / "onset-filter").round(4), paths[-1], "./holes calibration-report: "
+                   "the set in the onset prior whose planes over the onset filter's evaluations (and --probe's) lie "
+                   "deepest inside every target, margin_sd in the planes' residual SDs: where a probe looks next, "
+                   "not a posterior (analysis/soil/onset.py)")
     if (Path(bench_dir) / "onset").is_dir():
         paths += [Path(bench_dir) / "onset" / "probes.csv", Path(bench_dir) / "onset" / "cone-ratio.csv"]
         table = probes(Path(bench_dir) / "onset")
