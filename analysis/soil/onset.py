@@ -64,12 +64,14 @@ def cell_evaluations(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> pd.Data
     return pd.DataFrame(rows)
 
 
-def plane(table: pd.DataFrame, response: str) -> tuple[np.ndarray, float]:
-    """Least-squares plane of `response` in TERMS (the bond in kPa): intercept then a slope per term, and R²."""
+def plane(table: pd.DataFrame, response: str) -> tuple[np.ndarray, float, float]:
+    """Least-squares plane of `response` in TERMS (the bond in kPa): intercept then a slope per term, R² and the
+    residual SD (n − 7 degrees of freedom; NaN with fewer than 8 rows)."""
     ok = table.dropna(subset=[response])
     X = np.column_stack([ok[t].fillna(0.0) / SCALE.get(t, 1.0) for t in TERMS])
-    coef, r2, _ = least_squares_plane(X, ok[response].to_numpy(float))
-    return coef, r2
+    coef, r2, resid = least_squares_plane(X, ok[response].to_numpy(float))
+    dof = len(ok) - len(TERMS) - 1
+    return coef, r2, float(np.sqrt(np.sum(resid ** 2) / dof)) if dof > 0 else math.nan
 
 
 def planes(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> tuple[dict, int]:
@@ -85,7 +87,7 @@ def planes(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> tuple[dict, int]:
 def planes_table(fitted: dict) -> pd.DataFrame:
     """One row a response: its plane's intercept, a slope per term (per kPa of bond) and R²."""
     return pd.DataFrame([{"response": r, "intercept": c[0], **dict(zip(TERMS, c[1:])), "r2": r2}
-                         for r, (c, r2) in fitted.items()])
+                         for r, (c, r2, _) in fitted.items()])
 
 
 def reach(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
@@ -98,7 +100,7 @@ def reach(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
     bounds = [tuple(v / SCALE.get(t, 1.0) for v in cfg["bounds"][t]) for t in TERMS]
     rows = []
     for heap, alpha_in_heap in (("as fitted", True), ("without α in the heap", False)):
-        coefs = {r: c.copy() for r, (c, _) in planes_.items()}
+        coefs = {r: c.copy() for r, (c, *_) in planes_.items()}
         if not alpha_in_heap:
             coefs["collapse_deg"][1 + TERMS.index("pressed_adhesion")] = 0.0
         A, b = [], []
@@ -215,20 +217,16 @@ def deepest(table: pd.DataFrame, ranges: dict, bounds: dict, transfer: float = 1
     meet inside the bounds. Returns margin_sd, the parameters, each response's plane value there, its plane's R² and
     residual SD and its evaluations."""
     from scipy.optimize import linprog
-    sets = table.drop_duplicates(subset=list(TERMS))
-    grains = table[table["floor"] == "grains"].drop_duplicates(subset=list(TERMS))
+    sets = table.drop_duplicates(subset=list(TERMS)).assign(cone_kpa=lambda t: t["cone_kpa"] * transfer)
+    grains = table[table["floor"] == "grains"].drop_duplicates(subset=list(TERMS))   # a twin on the plane counts once
     coefs, fits = {}, {}
     for r in RESPONSES:
-        t = (grains if r == "collapse_deg" else sets).dropna(subset=[r])
-        t = t.assign(cone_kpa=t["cone_kpa"] * transfer) if r == "cone_kpa" else t
-        X = np.column_stack([t[k] / SCALE.get(k, 1.0) for k in TERMS])
-        coef, r2, resid = least_squares_plane(X, t[r].to_numpy(float))
-        dof = len(t) - len(TERMS) - 1
-        if dof < 1:
-            raise ValueError(f"{r}: {len(t)} evaluations for a plane of {len(TERMS)} terms; allowed {len(TERMS) + 2} "
-                             "or more")
-        coefs[r] = coef
-        fits[r] = {"r2": r2, "resid_sd": float(np.sqrt(np.sum(resid ** 2) / dof)), "n": len(t)}
+        own = grains if r == "collapse_deg" else sets
+        coefs[r], r2, sd = plane(own, r)
+        fits[r] = {"r2": r2, "resid_sd": sd, "n": int(own[r].notna().sum())}
+        if not np.isfinite(sd):
+            raise ValueError(f"{r}: {fits[r]['n']} evaluations for a plane of {len(TERMS)} terms; allowed "
+                             f"{len(TERMS) + 2} or more")
     A, b = [], []
     for r in RESPONSES:
         lo, hi = ranges[r]
@@ -237,6 +235,8 @@ def deepest(table: pd.DataFrame, ranges: dict, bounds: dict, transfer: float = 1
         b += [hi - coefs[r][0], coefs[r][0] - lo]
     box = [tuple(v / SCALE.get(k, 1.0) for v in bounds[k]) for k in TERMS]
     out = linprog([0.0] * len(TERMS) + [-1.0], A_ub=A, b_ub=b, bounds=box + [(None, None)])
+    if not out.success:
+        raise ValueError(f"the deepest set: the linear programme did not solve ({out.message})")
     x = out.x[:-1]
     return {"margin_sd": float(out.x[-1]), **{k: float(v * SCALE.get(k, 1.0)) for k, v in zip(TERMS, x)},
             **{r: float(coefs[r][0] + coefs[r][1:] @ x) for r in RESPONSES},
@@ -251,8 +251,8 @@ def deepest_table(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFrame:
     for soil, own in table.groupby("soil") if len(table) else []:
         cfg = load_config(config, soil)
         ranges = {**target_ranges(soil, cfg), "cone_kpa": cone_range(soil, cfg)}
-        rows.append({"soil": soil, "cone_transfer": float(cfg["cone_check"].get("transfer", 1.0)),
-                     **deepest(own, ranges, cfg["bounds"], float(cfg["cone_check"].get("transfer", 1.0)))})
+        transfer = float(cfg["cone_check"].get("transfer", 1.0))
+        rows.append({"soil": soil, "cone_transfer": transfer, **deepest(own, ranges, cfg["bounds"], transfer)})
     return pd.DataFrame(rows)
 
 
