@@ -1427,6 +1427,28 @@ def feasible_region(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict,
     return out
 
 
+def deepest_margin(coefs: np.ndarray, intercepts, sds, ranges: list, box: list, rows: list = ()) -> tuple[np.ndarray, float]:
+    """The point of `box` (a (lo, hi) per term, None unbounded) where every plane (a row of `coefs`, a slope per term,
+    with its intercept and residual SD) lies the most residual SDs m inside its range ((lo, hi) each), and m (scipy's
+    linear programme; negative where the ranges do not all meet in `box`); `rows`: constraints row · point <= 0 on the
+    terms besides. The planes' deepest set: `deepest_point`'s and analysis/soil/onset.py's `deepest`.
+
+    >>> x, m = deepest_margin(np.array([[1.0]]), [0.0], [2.0], [(10.0, 30.0)], [(0.0, 100.0)])
+    >>> round(float(x[0]), 6), round(m, 6)
+    (20.0, 5.0)
+    """
+    from scipy.optimize import linprog
+    A = [[*row, 0.0] for row in rows]
+    rhs = [0.0] * len(A)
+    for coef, c0, sd, (lo, hi) in zip(coefs, intercepts, sds, ranges):
+        A += [[*-coef, sd], [*coef, sd]]
+        rhs += [c0 - lo, hi - c0]
+    out = linprog([0.0] * len(box) + [-1.0], A_ub=A, b_ub=rhs, bounds=[*box, (None, None)])
+    if not out.success:
+        raise RuntimeError(f"the planes' deepest set: the linear programme did not solve ({out.message})")
+    return out.x[:-1], float(out.x[-1])
+
+
 def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, fixed: dict | None = None) -> dict:
     """The parameter set in `bounds` whose planes lie deepest inside every target's range, the depth counted in
     each plane's residual SD (the runs' own scatter with the plane's misfit): the largest t with every response
@@ -1443,27 +1465,20 @@ def deepest_point(surfaces: pd.DataFrame, targets: pd.DataFrame, bounds: dict, f
     >>> round(d["margin_sd"], 3), round(d["normal_cohesion"] / 1e3), round(d["c_kpa"], 3)
     (5.0, 250, 25.0)
     """
-    from scipy.optimize import linprog
     fixed = {**UNSET, **(fixed or {})}
 
     def held(name):
         return tuple(bounds.get(name, (fixed[name], fixed[name])))
 
     (b_lo, b_hi), (s_lo, s_hi) = bounds["normal_cohesion"], held("new_contact_cohesion")
-    # variables: the six terms and t
     box = [(b_lo / 1e3, b_hi / 1e3), tuple(bounds["friction_deg"]), (0.0, None), tuple(bounds["rolling_friction"]),
-           held("damping"), held("pressed_adhesion"), (None, None)]
+           held("damping"), held("pressed_adhesion")]
     planes = surfaces.set_index("response").reindex(columns=[*SURFACE_TERMS, "intercept", "resid_sd"])
     coefs = planes[list(SURFACE_TERMS)].fillna(0.0).to_numpy(float)
-    rows, rhs = [[-s_hi, 0, 1, 0, 0, 0, 0], [s_lo, 0, -1, 0, 0, 0, 0]], [0.0, 0.0]
-    for r, coef in zip(planes.itertuples(), coefs):
-        lo, hi = targets.loc[r.Index, ["lo", "hi"]]
-        rows += [[*-coef, r.resid_sd], [*coef, r.resid_sd]]
-        rhs += [r.intercept - lo, hi - r.intercept]
-    out = linprog([0, 0, 0, 0, 0, 0, -1], A_ub=rows, b_ub=rhs, bounds=box)
-    if not out.success:
-        raise RuntimeError(f"deepest_point: {out.message}")
-    bond, friction, disturbed, rolling, damping, pressed, margin = out.x
+    ranges = [tuple(targets.loc[r, ["lo", "hi"]]) for r in planes.index]
+    x, margin = deepest_margin(coefs, planes["intercept"].to_numpy(float), planes["resid_sd"].to_numpy(float), ranges,
+                               box, [[-s_hi, 0, 1, 0, 0, 0], [s_lo, 0, -1, 0, 0, 0]])   # the share bond in its range
+    bond, friction, disturbed, rolling, damping, pressed = x
     point = {"margin_sd": float(margin), "normal_cohesion": float(bond * 1e3), "friction_deg": float(friction),
              **({"new_contact_cohesion": float(disturbed / bond) if bond > 0 else 0.0}
                 if "new_contact_cohesion" in bounds else {}), "rolling_friction": float(rolling),

@@ -30,9 +30,9 @@ from analysis.core.io import atomic_csv
 from analysis.core.schema import ROOT
 from analysis.core.soil_config import BENCH_DIR
 from analysis.soil.collapse import FLOORS
-from analysis.soil.bench_calibration import (cone_path, cone_range, difference_interval, evaluation_id,
-                                             least_squares_plane, load_config, measured, scene_result,
-                                             target_ranges)
+from analysis.soil.bench_calibration import (cone_path, cone_range, deepest_margin, difference_interval,
+                                             evaluation_id, least_squares_plane, load_config, measured,
+                                             scene_result, target_ranges)
 
 CELL_CONFIG = ROOT / "configs/bench_calibration_cell.toml"
 ONSET_CONFIG = ROOT / "configs/bench_calibration_onset.toml"
@@ -213,10 +213,9 @@ def deepest(table: pd.DataFrame, ranges: dict, bounds: dict, transfer: float = 1
     the grains only) fitted as planes (`plane`) of c, φ, the collapse slope and the cone times `transfer` (the
     config's cone transfer, as the filter weighs it), and the set inside `bounds` {term: (lo, hi)} the planes put
     deepest inside every range {response: (lo, hi)}: the largest margin m such that each plane lies m of its residual
-    SDs (n − 7 degrees of freedom) inside its range (scipy's linear programme); a negative m, where the ranges do not
-    meet inside the bounds. Returns margin_sd, the parameters, each response's plane value there, its plane's R² and
+    SDs (n − 7 degrees of freedom) inside its range (`deepest_margin`); a negative m, where the ranges do not meet
+    inside the bounds. Returns margin_sd, the parameters, each response's plane value there, its plane's R² and
     residual SD and its evaluations."""
-    from scipy.optimize import linprog
     sets = table.drop_duplicates(subset=list(TERMS)).assign(cone_kpa=lambda t: t["cone_kpa"] * transfer)
     grains = table[table["floor"] == "grains"].drop_duplicates(subset=list(TERMS))   # a twin on the plane counts once
     coefs, fits = {}, {}
@@ -227,18 +226,10 @@ def deepest(table: pd.DataFrame, ranges: dict, bounds: dict, transfer: float = 1
         if not np.isfinite(sd):
             raise ValueError(f"{r}: {fits[r]['n']} evaluations for a plane of {len(TERMS)} terms; allowed "
                              f"{len(TERMS) + 2} or more")
-    A, b = [], []
-    for r in RESPONSES:
-        lo, hi = ranges[r]
-        sd = fits[r]["resid_sd"]
-        A += [[*coefs[r][1:], sd], [*(-coefs[r][1:]), sd]]
-        b += [hi - coefs[r][0], coefs[r][0] - lo]
-    box = [tuple(v / SCALE.get(k, 1.0) for v in bounds[k]) for k in TERMS]
-    out = linprog([0.0] * len(TERMS) + [-1.0], A_ub=A, b_ub=b, bounds=box + [(None, None)])
-    if not out.success:
-        raise ValueError(f"the deepest set: the linear programme did not solve ({out.message})")
-    x = out.x[:-1]
-    return {"margin_sd": float(out.x[-1]), **{k: float(v * SCALE.get(k, 1.0)) for k, v in zip(TERMS, x)},
+    x, margin = deepest_margin(np.array([coefs[r][1:] for r in RESPONSES]), [coefs[r][0] for r in RESPONSES],
+                               [fits[r]["resid_sd"] for r in RESPONSES], [ranges[r] for r in RESPONSES],
+                               [tuple(v / SCALE.get(k, 1.0) for v in bounds[k]) for k in TERMS])
+    return {"margin_sd": margin, **{k: float(v * SCALE.get(k, 1.0)) for k, v in zip(TERMS, x)},
             **{r: float(coefs[r][0] + coefs[r][1:] @ x) for r in RESPONSES},
             **{f"{key}_{r}": fits[r][key] for r in RESPONSES for key in ("r2", "resid_sd", "n")}}
 
