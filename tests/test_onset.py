@@ -113,6 +113,7 @@ def test_the_deepest_set_lies_as_many_residual_sds_inside_every_range_as_the_pla
     twin = t.iloc[[0]].assign(floor="plane", collapse_deg=np.nan)
     ranges = {"c_kpa": (20, 35), "phi_deg": (20, 30), "collapse_deg": (30, 38), "cone_kpa": (382.5, 517.5)}
     got = onset.deepest(pd.concat([t, twin], ignore_index=True), ranges, bounds, transfer=0.9)
+    assert onset.has_planes(t.iloc[:8]) and not onset.has_planes(t.iloc[:7])    # a filter just begun: no planes yet
     assert got["n_c_kpa"] == n and got["n_collapse_deg"] == n and got["r2_cone_kpa"] > 0.9
     assert all(lo <= got[k] <= hi for k, (lo, hi) in bounds.items())
     m = got["margin_sd"]

@@ -208,6 +208,20 @@ def cone_ratio(table: pd.DataFrame, pooled: float = RATIO_POOLED) -> pd.DataFram
 RESPONSES = ("c_kpa", "phi_deg", "collapse_deg", "cone_kpa")
 
 
+def plane_rows(table: pd.DataFrame, transfer: float = 1.0) -> dict:
+    """Each response's evaluations for its plane, from `table` (`filter_evaluations`): every parameter set once, the
+    cone times `transfer`, the collapse slope from columns on the grains only (a twin on the plane counts once)."""
+    sets = table.drop_duplicates(subset=list(TERMS)).assign(cone_kpa=lambda t: t["cone_kpa"] * transfer)
+    grains = table[table["floor"] == "grains"].drop_duplicates(subset=list(TERMS))
+    return {r: grains if r == "collapse_deg" else sets for r in RESPONSES}
+
+
+def has_planes(table: pd.DataFrame) -> bool:
+    """Whether every response of `table` has the evaluations a plane with a residual SD needs (`plane_rows`: two
+    more than TERMS), as a filter that has just begun has not."""
+    return all(own[r].notna().sum() >= len(TERMS) + 2 for r, own in plane_rows(table).items())
+
+
 def deepest(table: pd.DataFrame, ranges: dict, bounds: dict, transfer: float = 1.0) -> dict:
     """The evaluations of `table` (`filter_evaluations`: each parameter set once, its collapse slope from a column on
     the grains only) fitted as planes (`plane`) of c, φ, the collapse slope and the cone times `transfer` (the
@@ -216,11 +230,8 @@ def deepest(table: pd.DataFrame, ranges: dict, bounds: dict, transfer: float = 1
     SDs (n − 7 degrees of freedom) inside its range (`deepest_margin`); a negative m, where the ranges do not meet
     inside the bounds. Returns margin_sd, the parameters, each response's plane value there, its plane's R² and
     residual SD and its evaluations."""
-    sets = table.drop_duplicates(subset=list(TERMS)).assign(cone_kpa=lambda t: t["cone_kpa"] * transfer)
-    grains = table[table["floor"] == "grains"].drop_duplicates(subset=list(TERMS))   # a twin on the plane counts once
     coefs, fits = {}, {}
-    for r in RESPONSES:
-        own = grains if r == "collapse_deg" else sets
+    for r, own in plane_rows(table, transfer).items():
         coefs[r], r2, sd = plane(own, r)
         fits[r] = {"r2": r2, "resid_sd": sd, "n": int(own[r].notna().sum())}
         if not np.isfinite(sd):
@@ -235,11 +246,13 @@ def deepest(table: pd.DataFrame, ranges: dict, bounds: dict, transfer: float = 1
 
 
 def deepest_table(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFrame:
-    """`deepest` of each soil with evaluations in the onset filter's folder, in its prior and against its targets
-    (the cone's Table 2 ± tolerance, its reading times the config's transfer)."""
+    """`deepest` of each soil with the evaluations for its planes (`has_planes`) in the onset filter's folder, in its
+    prior and against its targets (the cone's Table 2 ± tolerance, its reading times the config's transfer)."""
     table = filter_evaluations(folder, config)
     rows = []
     for soil, own in table.groupby("soil") if len(table) else []:
+        if not has_planes(own):
+            continue
         cfg = load_config(config, soil)
         ranges = {**target_ranges(soil, cfg), "cone_kpa": cone_range(soil, cfg)}
         transfer = float(cfg["cone_check"].get("transfer", 1.0))
