@@ -188,12 +188,17 @@ def posterior_samples(soil: str, share: float, most: int, bench_dir=None) -> lis
 
 
 def equal_bonds(values: dict) -> dict:
-    """Contact parameters with the shear bond set equal to the normal one, as the bench calibration varies them.
+    """Contact parameters with the shear bond set equal to the normal one, as the bench calibration varies them,
+    unless they name a shear bond of their own (a probe of the bond's shear-to-tension ratio).
 
     >>> equal_bonds({"normal_cohesion": 3e5, "friction_deg": 12.0})
     {'normal_cohesion': 300000.0, 'friction_deg': 12.0, 'shear_cohesion': 300000.0}
+    >>> equal_bonds({"normal_cohesion": 3e5, "shear_cohesion": 6e5})["shear_cohesion"]
+    600000.0
     """
-    return {**values, "shear_cohesion": values["normal_cohesion"]} if "normal_cohesion" in values else dict(values)
+    if "normal_cohesion" not in values or "shear_cohesion" in values:
+        return dict(values)
+    return {**values, "shear_cohesion": values["normal_cohesion"]}
 
 
 def soil_with(soil: Soil, overrides: dict) -> Soil:

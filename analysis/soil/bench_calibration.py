@@ -1133,13 +1133,14 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
 def probes(soil: str, sets: list[dict], cfg: dict, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
     """Chosen parameter sets' bench responses and cone index on the calibration's (first) packing, cfg's workers at a time:
     where a soil's prior should lie, looked at before a filter spends its iterations there. Each set names every
-    calibrated parameter (cfg's bounds); each evaluation is a run folder like the filter's and reused by it. Writes
+    calibrated parameter (cfg's bounds) and may name other contact parameters the filter holds (a shear bond of its
+    own: `shear_cohesion`); each evaluation is a run folder like the filter's and reused by it. Writes
     <out_dir>/<soil>-probes.csv (these probes and earlier ones)."""
     names = set(cfg["bounds"])
     for p in sets:
-        if set(p) != names:
-            raise ConfigError(f"--probe {','.join(sorted(p))}: allowed exactly the calibrated parameters "
-                              f"{', '.join(sorted(names))}, each NAME=VALUE")
+        if not names <= set(p):
+            raise ConfigError(f"--probe {','.join(sorted(p))}: allowed every calibrated parameter "
+                              f"{', '.join(sorted(names))}, each NAME=VALUE, and other contact parameters besides")
     seed = filter_seeds(cfg)[0]
     rows = evaluate_all(soil, [(seed, dict(p)) for p in sets], cfg, out_dir, with_cone=True)
     table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
