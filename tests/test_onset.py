@@ -94,6 +94,31 @@ def test_the_filters_evaluations_are_read_with_their_floor_and_a_failed_columns_
     assert np.isnan(t["cone_kpa"]).all()
 
 
+def test_a_probe_with_a_shear_bond_of_its_own_is_read_with_it_and_kept_out_of_the_planes(tmp_path):
+    """A --probe that gave the shear bond its own value is found under its id (drawn with that bond) and carries it
+    in `shear_cohesion`, empty for the filter's sets; the planes, whose terms hold the shear bond equal to the normal,
+    leave it out."""
+    import math
+    tests = [{"stress_kpa": s, "sigma_at_peak_kpa": s, "tau_peak_kpa": 20 + s * math.tan(math.radians(25)),
+              "size_m": [0.12] * 3} for s in (50.0, 100.0, 200.0)]
+    params = dict(zip(onset.TERMS, (9e4, 6.0, 0.3, 0.2, 0.15, 0.4)))
+    cfg = onset.load_config(onset.ONSET_CONFIG, "clay")
+    grains = {**cfg, "collapse_floor": "grains"}
+    for own in ({}, {"shear_cohesion": 1.8e5}):
+        name = onset.evaluation_id("clay", 1, {**params, **own}, grains)
+        d = tmp_path / "clay" / name
+        d.mkdir(parents=True)
+        (d / "cell.json").write_text(json.dumps({"tests": tests}))
+        (d / "responses.json").write_text(json.dumps({"id": name, "soil": "clay", "seed": 1, **params, **own}))
+    probe = onset.evaluation_id("clay", 1, {**params, "shear_cohesion": 1.8e5}, grains)
+    (tmp_path / "clay-probes.csv").write_text(f"# a probe\nid,c_kpa\n{probe},20\n")
+    t = onset.filter_evaluations(tmp_path)
+    assert len(t) == 2 and set(t["floor"]) == {"grains"}
+    assert t.set_index("probe")["shear_cohesion"].to_dict().get(True) == 1.8e5
+    assert np.isnan(t.set_index("probe").loc[False, "shear_cohesion"])
+    assert all(len(rows) == 1 for rows in onset.plane_rows(t).values())
+
+
 def test_the_deepest_set_lies_as_many_residual_sds_inside_every_range_as_the_planes_allow():
     """Made-up evaluations of known planes with scatter: the set `deepest` returns lies inside the bounds and
     margin_sd residual SDs inside every range, and some range is met at exactly that depth (none deeper is possible);
