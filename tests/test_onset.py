@@ -64,13 +64,17 @@ def test_one_sets_cones_are_pooled_by_cone_to_grain_ratio_and_compared_by_welch(
     assert r.loc[">= 3.2", "ratio_of_means"] == pytest.approx(485 / 540)
 
 
+def made_up_cell() -> list[dict]:
+    """A cell's three tests at 50, 100 and 200 kPa on a Mohr-Coulomb line of c 20 kPa, φ 25°."""
+    import math
+    return [{"stress_kpa": s, "sigma_at_peak_kpa": s, "tau_peak_kpa": 20 + s * math.tan(math.radians(25)),
+             "size_m": [0.12] * 3} for s in (50.0, 100.0, 200.0)]
+
+
 def test_the_filters_evaluations_are_read_with_their_floor_and_a_failed_columns_cell(tmp_path):
     """One evaluation on the grains that finished, one on the plane whose column was still moving: each row names its
     floor, c and φ come from the cell in both, the slope from the finished column only, the failure's reason kept."""
-    import math
-    tests = [{"stress_kpa": s, "sigma_at_peak_kpa": s, "tau_peak_kpa": 20 + s * math.tan(math.radians(25)),
-              "size_m": [0.12] * 3} for s in (50.0, 100.0, 200.0)]
-    params = dict(zip(onset.TERMS, (9e4, 6.0, 0.3, 0.2, 0.15, 0.4)))
+    tests, params = made_up_cell(), dict(zip(onset.TERMS, (9e4, 6.0, 0.3, 0.2, 0.15, 0.4)))
     heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
     cfg = onset.load_config(onset.ONSET_CONFIG, "clay")
     ids = {f: onset.evaluation_id("clay", 1, params, {**cfg, "collapse_floor": f}) for f in ("plane", "grains")}
@@ -98,10 +102,7 @@ def test_a_probe_with_a_shear_bond_of_its_own_is_read_with_it_and_kept_out_of_th
     """A --probe that gave the shear bond its own value is found under its id (drawn with that bond) and carries it
     in `shear_cohesion`, empty for the filter's sets; the planes, whose terms hold the shear bond equal to the normal,
     leave it out."""
-    import math
-    tests = [{"stress_kpa": s, "sigma_at_peak_kpa": s, "tau_peak_kpa": 20 + s * math.tan(math.radians(25)),
-              "size_m": [0.12] * 3} for s in (50.0, 100.0, 200.0)]
-    params = dict(zip(onset.TERMS, (9e4, 6.0, 0.3, 0.2, 0.15, 0.4)))
+    tests, params = made_up_cell(), dict(zip(onset.TERMS, (9e4, 6.0, 0.3, 0.2, 0.15, 0.4)))
     cfg = onset.load_config(onset.ONSET_CONFIG, "clay")
     grains = {**cfg, "collapse_floor": "grains"}
     for own in ({}, {"shear_cohesion": 1.8e5}):
