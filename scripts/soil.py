@@ -15,6 +15,10 @@ an onset (`adhesion_onset` above 0, a pressure: times r_min² a force) only a co
 as a moist contact re-adheres once it yields plastically (Tomas's contact consolidation), so a heap's light contacts
 stay as they were while soil pressed by a tool or a confining stress re-adheres; the press must hold over two of
 the rule's passes, 20 steps apart, longer than a grain's impact lasts, so grains striking one another do not bond.
+With a share (`adhesion_share` above 0, in place of α, with an onset) a contact held pressed past the onset
+re-adheres at that share of the intact bond whatever its press: the bond of a moist contact that has yielded is set by
+its water bridges, so soil pressed by a tool or a confining stress gains the same cohesion at every stress, where α F
+grows with the press as friction does.
 Bond stretch (`bond_stretch` above 0, ductile bonds): a bond pulled to its tensile strength holds it while it
 stretches by that many radii of the smaller grain, and parts beyond (YADE's CohFrictPhys.unpMax), as a moist soil's
 water bridge necks before it snaps; at 0 it parts once its strength is passed.
@@ -131,13 +135,14 @@ def bond_new_contacts(O, soil):
 
 
 def press_bonds(O, alpha: float, normal: float, shear: float, grain, stretch: float = 0.0, onset: float = 0.0,
-                held: set | None = None) -> int:
+                held: set | None = None, share: float = 0.0) -> int:
     """One pass of the bond rules (module doc) over the grain-grain contacts (`grain`: a bool per body id). Pressed
     re-adhesion (α > 0): a contact whose bond is below the intact one (`normal` times r_min², YADE's Ip2) and that is
     compressed by a force F gets α F as its bond when that is more than it holds, capped at the intact one. With an
     `onset` only a contact compressed by more than onset × r_min² at this pass and at the one before (its pair in
     `held`, which the pass then replaces with this pass's) re-adheres: a grain's impact lasts less than a pass's
-    interval. Bond stretch (`stretch` > 0): every bonded contact not yet given it may stretch `stretch` × r_min at its
+    interval. With a `share` (> 0, α 0, with an onset) such a contact gets share × the intact bond instead of α F.
+    Bond stretch (`stretch` > 0): every bonded contact not yet given it may stretch `stretch` × r_min at its
     strength before it parts. Returns how many bonds the pass made or raised."""
     n, size, now = 0, len(grain), set()
     for I in O.interactions:
@@ -146,7 +151,7 @@ def press_bonds(O, alpha: float, normal: float, shear: float, grain, stretch: fl
         phys, geom = I.phys, I.geom
         r_min = min(geom.refR1, geom.refR2)
         cap = normal * r_min ** 2
-        if alpha and phys.normalAdhesion < cap:
+        if (alpha or share) and phys.normalAdhesion < cap:
             pressed = phys.normalForce.dot(geom.normal)
             if onset:
                 if pressed <= onset * r_min ** 2:
@@ -155,7 +160,7 @@ def press_bonds(O, alpha: float, normal: float, shear: float, grain, stretch: fl
                     now.add((I.id1, I.id2))
                     if held is not None and (I.id1, I.id2) not in held:
                         pressed = 0.0
-            bond = min(cap, alpha * pressed)
+            bond = min(cap, share * cap if share and pressed > 0 else alpha * pressed)
             if bond > phys.normalAdhesion:
                 phys.normalAdhesion, phys.shearAdhesion, phys.cohesionBroken = bond, bond * shear / normal, False
                 n += 1
@@ -168,10 +173,10 @@ def press_bonds(O, alpha: float, normal: float, shear: float, grain, stretch: fl
 
 
 def bond_rules(O, soil, every: int = PRESS_EVERY) -> list:
-    """The engine of the bond rules (module doc) when the soil has one (`pressed_adhesion` or `bond_stretch` above
-    0), else none: every `every` steps a pass of press_bonds over the soil's spheres. PyRunner evaluates its command
+    """The engine of the bond rules (module doc) when the soil has one (`pressed_adhesion`, `adhesion_share` or
+    `bond_stretch` above 0), else none: every `every` steps a pass of press_bonds over the soil's spheres. PyRunner evaluates its command
     in YADE's global namespace: the pass is put there under a name no engine's label takes."""
-    if not (soil.pressed_adhesion or soil.bond_stretch):
+    if not (soil.pressed_adhesion or soil.adhesion_share or soil.bond_stretch):
         return []
     import builtins
     import numpy as np
@@ -185,7 +190,7 @@ def bond_rules(O, soil, every: int = PRESS_EVERY) -> list:
             grain = np.array([b is not None and isinstance(b.shape, Sphere) and b.material.label == "soil"
                               for b in O.bodies], bool)     # found again only when bodies come or go
         press_bonds(O, soil.pressed_adhesion, soil.normal_cohesion, soil.shear_cohesion, grain, soil.bond_stretch,
-                    soil.adhesion_onset, held)
+                    soil.adhesion_onset, held, soil.adhesion_share)
 
     builtins.holes_press_bonds = press
     return [PyRunner(command="holes_press_bonds()", iterPeriod=every, label="pressed")]

@@ -235,6 +235,18 @@ def test_pressed_re_adhesion_is_off_unless_set_and_leaves_a_runs_id_as_it_was():
     assert plan("clay", "validation_medium", seed=1, overrides={"adhesion_onset": 0.0})["id"] == before["id"]
     with pytest.raises(ConfigError, match=r"pressed_adhesion = 7.*out of range.*allowed"):
         soil_with(load_soil("clay"), {"pressed_adhesion": 7})
+    assert "adhesion_share" not in before["soil"]     # nor the share law's
+    assert plan("clay", "validation_medium", seed=1, overrides={"adhesion_share": 0.0})["id"] == before["id"]
+
+
+@pytest.mark.parametrize("overrides", [{"adhesion_share": 0.5, "pressed_adhesion": 0.3, "adhesion_onset": 4e4},
+                                       {"adhesion_share": 0.5}])
+def test_the_share_law_is_refused_beside_alpha_or_without_an_onset(overrides):
+    """`adhesion_share` replaces α and acts from an onset: with α above 0, or no onset, it is refused naming both."""
+    from analysis.core.soil_config import load_soil, soil_with
+    with pytest.raises(ConfigError, match=r"adhesion_share = 0.5 with pressed_adhesion.*allowed"):
+        soil_with(load_soil("clay"), overrides)
+    assert soil_with(load_soil("clay"), {"adhesion_share": 0.5, "adhesion_onset": 4e4}).adhesion_share == 0.5
 
 
 @pytest.mark.parametrize("value", [math.inf, -math.inf, math.nan])

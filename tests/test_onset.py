@@ -98,25 +98,27 @@ def test_the_filters_evaluations_are_read_with_their_floor_and_a_failed_columns_
     assert np.isnan(t["cone_kpa"]).all()
 
 
-def test_a_probe_with_a_shear_bond_of_its_own_is_read_with_it_and_kept_out_of_the_planes(tmp_path):
-    """A --probe that gave the shear bond its own value is found under its id (drawn with that bond) and carries it
-    in `shear_cohesion`, empty for the filter's sets; the planes, whose terms hold the shear bond equal to the normal,
-    leave it out."""
+@pytest.mark.parametrize("key, value, alpha", [("shear_cohesion", 1.8e5, 0.3), ("adhesion_share", 0.4, 0.0)])
+def test_a_probe_with_a_parameter_of_its_own_is_read_with_it_and_kept_out_of_the_planes(tmp_path, key, value, alpha):
+    """A --probe that gave a contact parameter besides the filter's terms (a shear bond of its own, the share law in
+    place of α) is found under its id (drawn with it) and carries it in its column, empty for the filter's sets; the
+    planes, whose terms hold the shear bond equal to the normal and re-adhere by α, leave it out."""
     tests, params = made_up_cell(), dict(zip(onset.TERMS, (9e4, 6.0, 0.3, 0.2, 0.15, 0.4)))
     cfg = onset.load_config(onset.ONSET_CONFIG, "clay")
     grains = {**cfg, "collapse_floor": "grains"}
-    for own in ({}, {"shear_cohesion": 1.8e5}):
-        name = onset.evaluation_id("clay", 1, {**params, **own}, grains)
+    own_set = {**params, "pressed_adhesion": alpha, key: value}
+    for each in (params, own_set):
+        name = onset.evaluation_id("clay", 1, each, grains)
         d = tmp_path / "clay" / name
         d.mkdir(parents=True)
         (d / "cell.json").write_text(json.dumps({"tests": tests}))
-        (d / "responses.json").write_text(json.dumps({"id": name, "soil": "clay", "seed": 1, **params, **own}))
-    probe = onset.evaluation_id("clay", 1, {**params, "shear_cohesion": 1.8e5}, grains)
+        (d / "responses.json").write_text(json.dumps({"id": name, "soil": "clay", "seed": 1, **each}))
+    probe = onset.evaluation_id("clay", 1, own_set, grains)
     (tmp_path / "clay-probes.csv").write_text(f"# a probe\nid,c_kpa\n{probe},20\n")
     t = onset.filter_evaluations(tmp_path)
     assert len(t) == 2 and set(t["floor"]) == {"grains"}
-    assert t.set_index("probe")["shear_cohesion"].to_dict().get(True) == 1.8e5
-    assert np.isnan(t.set_index("probe").loc[False, "shear_cohesion"])
+    assert t.set_index("probe")[key].to_dict().get(True) == value
+    assert np.isnan(t.set_index("probe").loc[False, key])
     assert all(len(rows) == 1 for rows in onset.plane_rows(t).values())
 
 

@@ -915,12 +915,13 @@ boot(1)
 from yade import O, utils
 from analysis.core.soil_config import load_soil, soil_with
 from scripts import soil as part
-alpha, press, pull, onset = map(float, sys.argv[1:5])
+alpha, press, pull, onset, share = map(float, sys.argv[1:6])
 soil = soil_with(load_soil("clay"), {"normal_cohesion": 176e3, "shear_cohesion": 176e3, "bond_fragile": 0,
-                                     "new_contact_cohesion": 0.0, "pressed_adhesion": alpha, "adhesion_onset": onset})
+                                     "new_contact_cohesion": 0.0, "pressed_adhesion": alpha, "adhesion_onset": onset,
+                                     "adhesion_share": share})
 mat = O.materials.append(part.soil_material(soil, density=2650.0))
 O.materials[mat].normalCohesion = O.materials[mat].shearCohesion = 0.0    # a new contact: no bond of its own
-fixed_one = O.materials.append(part.steel_material(soil)) if len(sys.argv) > 5 else mat   # a tool's steel sphere
+fixed_one = O.materials.append(part.steel_material(soil)) if len(sys.argv) > 6 else mat   # a tool's steel sphere
 a = O.bodies.append(utils.sphere((0, 0, 0), 0.006, material=fixed_one, fixed=True))
 b = O.bodies.append(utils.sphere((0, 0, 0.011999), 0.006, material=mat))    # touching: 1 µm
 O.engines = part.engines(0.3, cohesion_on_new_contacts=True, gravity=(0, 0, 0), extra=part.bond_rules(O, soil))
@@ -948,7 +949,7 @@ def test_grains_pressed_together_re_adhere_by_the_force_that_pressed_them_up_to_
     import os
     import subprocess
     import sys
-    r = subprocess.run([sys.executable, "-c", PRESSED, str(alpha), "2.0", str(pull), "0"], capture_output=True, text=True,
+    r = subprocess.run([sys.executable, "-c", PRESSED, str(alpha), "2.0", str(pull), "0", "0"], capture_output=True, text=True,
                        cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])
@@ -965,11 +966,29 @@ def test_a_contact_re_adheres_only_once_pressed_past_the_onset(onset, bond):
     import os
     import subprocess
     import sys
-    r = subprocess.run([sys.executable, "-c", PRESSED, "0.5", "2.0", "0.5", str(onset)], capture_output=True,
+    r = subprocess.run([sys.executable, "-c", PRESSED, "0.5", "2.0", "0.5", str(onset), "0"], capture_output=True,
                        text=True, cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out["bond"] == pytest.approx(bond, rel=0.02, abs=1e-9) and out["apart"] is (bond == 0.0)
+
+
+@pytest.mark.scene
+@pytest.mark.parametrize("press, pull, bond, apart", [(2.0, 2.8, 3.17, False), (2.0, 3.6, 3.17, True),
+                                                      (4.0, 2.8, 3.17, False), (0.5, 0.1, 0.0, True)])
+def test_a_contact_held_past_the_onset_re_adheres_at_the_share_of_the_intact_bond_whatever_its_press(press, pull,
+                                                                                                     bond, apart):
+    """`adhesion_share`: two grains pressed together past the onset (30 kPa × r² = 1.08 N) re-adhere at half the
+    intact bond (0.5 × 176 kPa × r² = 3.17 N) whether pressed by 2 N or 4 N, hold a pull under it and part over it;
+    pressed by 0.5 N, under the onset, they do not re-adhere."""
+    import os
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-c", PRESSED, "0", str(press), str(pull), "30e3", "0.5"], capture_output=True,
+                       text=True, cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["bond"] == pytest.approx(bond, rel=0.02, abs=1e-9) and out["apart"] is apart
 
 
 STRUCK = """
@@ -1023,7 +1042,7 @@ def test_a_tools_steel_sphere_pressed_into_a_grain_never_re_adheres():
     import os
     import subprocess
     import sys
-    r = subprocess.run([sys.executable, "-c", PRESSED, "0.5", "2.0", "0.05", "0", "steel"], capture_output=True, text=True,
+    r = subprocess.run([sys.executable, "-c", PRESSED, "0.5", "2.0", "0.05", "0", "0", "steel"], capture_output=True, text=True,
                        cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])

@@ -28,13 +28,17 @@ SOIL_FIELDS = {
                             "bond rules in a row (longer than a grain's impact) before pressed re-adhesion acts on it, "
                             "times r_min² a force (a moist contact re-adheres once it yields plastically; a loose "
                             "heap's light contacts do not); 0: from any load, at once"),
+    "adhesion_share": Field(0.0, 1.0, meaning="the bond a contact held pressed past the onset re-adheres at, as a "
+                            "fraction of the intact bond, whatever its press (moist soil pressed together re-adheres "
+                            "once it yields, its bridges' strength then set by the water, not the load); in place of "
+                            "pressed_adhesion, with an adhesion_onset; 0: not this law"),
     "bond_stretch": Field(0.0, 1.0, meaning="how far a ductile bond held at its tensile strength stretches before it "
                           "parts, in radii of the smaller grain (YADE's CohFrictPhys.unpMax over r_min), as a moist "
                           "soil's water bridge necks before it snaps; 0: it parts once its strength is passed"),
 }
 # optional in a soil config; a run's id leaves them out
 SOIL_DEFAULTS = {"new_contact_cohesion": 1.0, "bond_fragile": 1, "pressed_adhesion": 0.0, "bond_stretch": 0.0,
-                 "adhesion_onset": 0.0}
+                 "adhesion_onset": 0.0, "adhesion_share": 0.0}
 SOILS = ("clay", "loam", "sand")
 SOIL_COLOURS = {"clay": "tab:brown", "loam": "tab:olive", "sand": "tab:orange"}    # one colour a soil in every plot
 
@@ -59,11 +63,17 @@ class Soil:
     pressed_adhesion: float = 0.0       # bond gained per newton of the greatest compression a weaker contact carried
     bond_stretch: float = 0.0           # radii of r_min a ductile bond stretches at its strength before it parts
     adhesion_onset: float = 0.0         # Pa: times r_min², the compression below which no pressed re-adhesion acts
+    adhesion_share: float = 0.0         # the intact bond's share a contact held pressed past the onset re-adheres at
 
     def __post_init__(self):
         if self.bond_stretch > 0 and self.bond_fragile:
             raise ConfigError(f"{self.name}: bond_stretch = {self.bond_stretch:g} with bond_fragile = 1: allowed "
                               "bond_stretch 0 for fragile bonds (they part once exceeded), or bond_fragile = 0")
+        if self.adhesion_share > 0 and (self.pressed_adhesion > 0 or self.adhesion_onset <= 0):
+            raise ConfigError(f"{self.name}: adhesion_share = {self.adhesion_share:g} with pressed_adhesion = "
+                              f"{self.pressed_adhesion:g} and adhesion_onset = {self.adhesion_onset:g}: allowed "
+                              "adhesion_share above 0 only with pressed_adhesion 0 (one re-adhesion law) and "
+                              "adhesion_onset above 0")
 
     @property
     def wet_density(self) -> float:

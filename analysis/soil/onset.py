@@ -37,7 +37,8 @@ from analysis.soil.bench_calibration import (cone_path, cone_range, deepest_marg
 CELL_CONFIG = ROOT / "configs/bench_calibration_cell.toml"
 ONSET_CONFIG = ROOT / "configs/bench_calibration_onset.toml"
 TERMS = ("normal_cohesion", "friction_deg", "pressed_adhesion", "rolling_friction", "damping", "bond_stretch")
-OWN_SHEAR = "shear_cohesion"     # a probe's shear bond of its own; the filter's sets hold it equal to the normal bond
+OWN = ("shear_cohesion", "adhesion_share")   # a probe's own contact parameters besides TERMS: a shear bond of its own
+                                             # (the filter's sets hold it equal to the normal bond), the share law
 SCALE = {"normal_cohesion": 1e3}          # the bond in kPa in the planes
 # a test's scene options kept in its row, each with its type: a cone's grains, size and speed
 OPTIONS = {"--resolution": ("resolution", str), "--cone-scale": ("cone_scale", float),
@@ -149,7 +150,7 @@ def probes(folder: Path = BENCH_DIR / "onset") -> pd.DataFrame:
 def filter_evaluations(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFrame:
     """Every evaluation finished in the onset filter's folder (`folder`/<soil>/*/responses.json), the filter's and the
     chosen sets' of `--probe` (`probe`: its id in `folder`/<soil>-probes.csv), one row each: its id, the collapse
-    column's floor, the parameters (`shear_cohesion` where a probe gave the shear bond its own, else empty), c and φ
+    column's floor, the parameters (OWN's where a probe gave them, else empty), c and φ
     from its cell (read where the column failed too), the collapse slope and
     why it failed, if it did; the cone index where it ran (`config`'s cone, kept in `folder`/cone/)."""
     from analysis.soil.collapse import profile_angle
@@ -163,13 +164,13 @@ def filter_evaluations(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFram
         failed = row.get("failed") if isinstance(row.get("failed"), str) else ""
         if row["soil"] not in cfgs:                             # the config read once a soil
             cfgs[row["soil"]] = load_config(config, row["soil"])
-        cfg, params = cfgs[row["soil"]], {k: row[k] for k in (*TERMS, OWN_SHEAR) if k in row}
+        cfg, params = cfgs[row["soil"]], {k: row[k] for k in (*TERMS, *OWN) if k in row}
         floor = next(f for f in FLOORS                 # the floor its id was drawn with
                      if evaluation_id(row["soil"], row["seed"], params, {**cfg, "collapse_floor": f}) == row["id"])
         cone, _ = cone_path(row["soil"], params, cfg, folder)
         rows.append({"soil": row["soil"], "id": row["id"], "seed": row["seed"], "probe": row["id"] in probed,
                      "floor": floor,
-                     **{k: row[k] for k in TERMS}, OWN_SHEAR: row.get(OWN_SHEAR, math.nan),
+                     **{k: row[k] for k in TERMS}, **{k: row.get(k, math.nan) for k in OWN},
                      "c_kpa": fit.get("c_kpa", math.nan),
                      "phi_deg": fit.get("phi_deg", math.nan),
                      "collapse_deg": profile_angle(column["profile_mm"]) if column else math.nan,
@@ -214,9 +215,9 @@ RESPONSES = ("c_kpa", "phi_deg", "collapse_deg", "cone_kpa")
 def plane_rows(table: pd.DataFrame, transfer: float = 1.0) -> dict:
     """Each response's evaluations for its plane, from `table` (`filter_evaluations`): every parameter set once, the
     cone times `transfer`, the collapse slope from columns on the grains only (a twin on the plane counts once); the
-    sets whose shear bond is its own left out, for the planes' terms hold it equal to the normal bond."""
-    if OWN_SHEAR in table:
-        table = table[table[OWN_SHEAR].isna()]
+    sets with a parameter of OWN left out, for the planes' terms hold the shear bond equal to the normal bond and
+    re-adhere by α."""
+    table = table[table[[k for k in OWN if k in table]].isna().all(axis=1)]
     sets = table.drop_duplicates(subset=list(TERMS)).assign(cone_kpa=lambda t: t["cone_kpa"] * transfer)
     grains = table[table["floor"] == "grains"].drop_duplicates(subset=list(TERMS))
     return {r: grains if r == "collapse_deg" else sets for r in RESPONSES}
