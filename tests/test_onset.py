@@ -73,7 +73,8 @@ def made_up_cell() -> list[dict]:
 
 def test_the_filters_evaluations_are_read_with_their_floor_and_a_failed_columns_cell(tmp_path):
     """One evaluation on the grains that finished, one on the plane whose column was still moving: each row names its
-    floor, c and φ come from the cell in both, the slope from the finished column only, the failure's reason kept."""
+    floor, c and φ come from the cell in both, the slope from the finished column only, the failure's reason kept;
+    an evaluation drawn under other bench settings is left out."""
     tests, params = made_up_cell(), dict(zip(onset.TERMS, (9e4, 6.0, 0.3, 0.2, 0.15, 0.4)))
     heap = [[x, max(0.0, min(100.0, 100.0 - (x - 100.0)))] for x in range(0, 400, 2)]
     cfg = onset.load_config(onset.ONSET_CONFIG, "clay")
@@ -88,8 +89,12 @@ def test_the_filters_evaluations_are_read_with_their_floor_and_a_failed_columns_
             (d / "column.json").write_text(json.dumps({"profile_mm": heap, "floor": floor}))
         (d / "responses.json").write_text(json.dumps({"id": name, "soil": "clay", "seed": 1, **params,
                                                       **({"failed": failed} if failed else {})}))
+    other = tmp_path / "clay" / "s1-0123456789"           # drawn under other bench settings: left out
+    other.mkdir()
+    (other / "responses.json").write_text(json.dumps({"id": other.name, "soil": "clay", "seed": 1, **params}))
     (tmp_path / "clay-probes.csv").write_text(f"# a probe\nid,c_kpa\n{ids['plane']},20\n")
     t = onset.filter_evaluations(tmp_path).set_index("floor")
+    assert len(t) == 2
     assert t.loc["grains", "id"] == ids["grains"] and t.loc["plane", "id"] == ids["plane"]
     assert t["probe"].to_dict() == {"grains": False, "plane": True}
     assert t["c_kpa"].to_numpy() == pytest.approx([20, 20], abs=1e-6)

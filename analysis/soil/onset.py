@@ -152,7 +152,8 @@ def filter_evaluations(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFram
     chosen sets' of `--probe` (`probe`: its id in `folder`/<soil>-probes.csv), one row each: its id, the collapse
     column's floor, the parameters (OWN's where a probe gave them, else empty), c and φ
     from its cell (read where the column failed too), the collapse slope and
-    why it failed, if it did; the cone index where it ran (`config`'s cone, kept in `folder`/cone/)."""
+    why it failed, if it did; the cone index where it ran (`config`'s cone, kept in `folder`/cone/). An evaluation
+    whose id neither floor under `config`'s settings draws (another box's, another stress's) is left out."""
     from analysis.soil.collapse import profile_angle
     from analysis.soil.shear import fit_tests
     rows, cfgs = [], {}
@@ -165,8 +166,11 @@ def filter_evaluations(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFram
         if row["soil"] not in cfgs:                             # the config read once a soil
             cfgs[row["soil"]] = load_config(config, row["soil"])
         cfg, params = cfgs[row["soil"]], {k: row[k] for k in (*TERMS, *OWN) if k in row}
-        floor = next(f for f in FLOORS                 # the floor its id was drawn with
-                     if evaluation_id(row["soil"], row["seed"], params, {**cfg, "collapse_floor": f}) == row["id"])
+        floor = next((f for f in FLOORS                # the floor its id was drawn with
+                      if evaluation_id(row["soil"], row["seed"], params, {**cfg, "collapse_floor": f}) == row["id"]),
+                     None)
+        if floor is None:                              # drawn under other bench settings: not the filter's
+            continue
         cone, _ = cone_path(row["soil"], params, cfg, folder)
         rows.append({"soil": row["soil"], "id": row["id"], "seed": row["seed"], "probe": row["id"] in probed,
                      "floor": floor,
