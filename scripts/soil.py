@@ -174,8 +174,8 @@ def press_bonds(O, alpha: float, normal: float, shear: float, grain, stretch: fl
 
 def bond_rules(O, soil, every: int = PRESS_EVERY) -> list:
     """The engine of the bond rules (module doc) when the soil has one (`pressed_adhesion`, `adhesion_share` or
-    `bond_stretch` above 0), else none: every `every` steps a pass of press_bonds over the soil's spheres. PyRunner evaluates its command
-    in YADE's global namespace: the pass is put there under a name no engine's label takes."""
+    `bond_stretch` above 0), else none: every `every` steps a pass of press_bonds over the soil's spheres. PyRunner
+    evaluates its command in YADE's global namespace: the pass is put there under a name no engine's label takes."""
     if not (soil.pressed_adhesion or soil.adhesion_share or soil.bond_stretch):
         return []
     import builtins
