@@ -108,6 +108,7 @@ def run(bed_path: Path, soil_name: str, cone_scale: float = 3.0, speed: float = 
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[
         TranslationEngine(ids=tool, translationAxis=(0, 0, -1), velocity=speed, label="push"),
         *part.bond_rules(O, soil)])
+    part.hold_tool_friction(O, soil)
     O.dt = 0.5 * utils.PWaveTimeStep()
     n_steps = int(((surface - z_tip0) + hc + depth + 0.005) / speed / O.dt) + 1
     report = max(1, n_steps // 20)

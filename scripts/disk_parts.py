@@ -156,6 +156,7 @@ def run(params: dict, threads: int = 2, out_root: Path | None = None, bed_dir: P
         PyRunner(command=HOOK + "()", iterPeriod=1, label="hook"), *motion.engines,
         *part.bond_rules(O, soil)], avoid_self_mask=AVOID_SELF,
         gravity=tuple(x / k_density for x in part.GRAVITY))
+    part.hold_tool_friction(O, soil)
     import builtins
     # PyRunner evaluates its command in YADE's global namespace, where YADE also puts every engine by its label
     # (again when a saved scene is loaded): the command names no label, or a resumed run's PyRunner would call

@@ -176,6 +176,7 @@ def main_run(params: dict, threads: int = 2, out_root: Path | None = None, bed_d
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[
         PyRunner(command="duckbeak_hook()", iterPeriod=1, label="hook"), planter_engine,
         *part.bond_rules(O, soil)], avoid_self_mask=TOOL_SELF)
+    part.hold_tool_friction(O, soil)
     import builtins
     builtins.duckbeak_hook = hook           # PyRunner evaluates its command in YADE's global namespace
     O.dt = scene["dt_safety"] * utils.PWaveTimeStep()

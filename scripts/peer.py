@@ -164,6 +164,7 @@ def main() -> int:
     push = TranslationEngine(translationAxis=(0, 0, -1), velocity=0.0, ids=tool)
     O.engines = part.engines(soil.damping, cohesion_on_new_contacts=True, cohesion_now=True, extra=[push],
                              avoid_self_mask=TOOL_SELF)
+    part.hold_tool_friction(O, soil)
     O.dt = dt
     for phase, steps, speed in (("bed at rest", REST_STEPS, 0.0), ("punch", PUNCH_STEPS, PUNCH_SPEED)):
         push.velocity = speed

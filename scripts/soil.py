@@ -22,6 +22,9 @@ grows with the press as friction does.
 Bond stretch (`bond_stretch` above 0, ductile bonds): a bond pulled to its tensile strength holds it while it
 stretches by that many radii of the smaller grain, and parts beyond (YADE's CohFrictPhys.unpMax), as a moist soil's
 water bridge necks before it snaps; at 0 it parts once its strength is passed.
+Tools are steel (25°, never bonded); YADE's Ip2 gives a contact the lesser of its two materials' friction angles, so a
+grain slides on a tool at its own friction where that is under the steel's, unless the soil names a tool friction
+(`tool_friction_deg` above 0, `hold_tool_friction`), which every grain-steel contact then takes.
 """
 import math
 
@@ -115,6 +118,20 @@ def engines(damping: float, cohesion_on_new_contacts: bool, cohesion_now: bool =
         *extra,
         NewtonIntegrator(gravity=gravity, damping=damping, label="newton"),
     ]
+
+
+def hold_tool_friction(O, soil):
+    """When the soil names a tool friction (`tool_friction_deg` above 0), every contact of a soil grain with steel
+    (a tool) takes it, whatever the grain's own: YADE's Ip2 otherwise gives a contact the lesser of its two materials'
+    angles, the grain's where it is under the steel's. Call once the materials and engines exist."""
+    if not soil.tool_friction_deg:
+        return
+    from yade import MatchMaker
+    soil_ids = [m.id for m in O.materials if m.label == "soil"]
+    steel_ids = [m.id for m in O.materials if m.label == "steel"]
+    angle = math.radians(soil.tool_friction_deg)
+    ip2 = next(e for e in O.engines if isinstance(e, InteractionLoop)).physDispatcher.functors[0]
+    ip2.frictAngle = MatchMaker(matches=[(a, b, angle) for a in soil_ids for b in steel_ids], algo="min")
 
 
 def contact_law(O):

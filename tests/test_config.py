@@ -235,8 +235,10 @@ def test_pressed_re_adhesion_is_off_unless_set_and_leaves_a_runs_id_as_it_was():
     assert plan("clay", "validation_medium", seed=1, overrides={"adhesion_onset": 0.0})["id"] == before["id"]
     with pytest.raises(ConfigError, match=r"pressed_adhesion = 7.*out of range.*allowed"):
         soil_with(load_soil("clay"), {"pressed_adhesion": 7})
-    assert "adhesion_share" not in before["soil"]     # nor the share law's
-    assert plan("clay", "validation_medium", seed=1, overrides={"adhesion_share": 0.0})["id"] == before["id"]
+    assert "adhesion_share" not in before["soil"] and "tool_friction_deg" not in before["soil"]  # nor the share
+    assert plan("clay", "validation_medium", seed=1, overrides={"adhesion_share": 0.0})["id"] == before["id"]  # law's
+    assert plan("clay", "validation_medium", seed=1, overrides={"tool_friction_deg": 0.0})["id"] == before["id"]
+    assert plan("clay", "validation_medium", seed=1, overrides={"tool_friction_deg": 25.0})["id"] != before["id"]
 
 
 @pytest.mark.parametrize("overrides", [{"adhesion_share": 0.5, "pressed_adhesion": 0.3, "adhesion_onset": 4e4},

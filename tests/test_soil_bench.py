@@ -991,6 +991,44 @@ def test_a_contact_held_past_the_onset_re_adheres_at_the_share_of_the_intact_bon
     assert out["bond"] == pytest.approx(bond, rel=0.02, abs=1e-9) and out["apart"] is apart
 
 
+TOOL = """
+import json, math, sys
+from scripts.yadeboot import boot
+boot(1)
+from yade import O, utils
+from analysis.core.soil_config import load_soil, soil_with
+from scripts import soil as part
+soil = soil_with(load_soil("clay"), {"friction_deg": 5.0, "tool_friction_deg": float(sys.argv[1])})
+grain = O.materials.append(part.soil_material(soil, density=2650.0))
+steel = O.materials.append(part.steel_material(soil))
+a = O.bodies.append(utils.sphere((0, 0, 0), 0.006, material=steel, fixed=True))
+b = O.bodies.append(utils.sphere((0, 0, 0.0119), 0.006, material=grain))
+c = O.bodies.append(utils.sphere((0, 0, 0.0238), 0.006, material=grain))
+O.engines = part.engines(0.3, cohesion_on_new_contacts=False, gravity=(0, 0, 0))
+part.hold_tool_friction(O, soil)
+O.dt = 1e-6
+O.step()
+angle = lambda i, j: math.degrees(math.atan(O.interactions[i, j].phys.tangensOfFrictionAngle))
+print(json.dumps({"tool": angle(a, b), "grains": angle(b, c)}))
+"""
+
+
+@pytest.mark.scene
+@pytest.mark.parametrize("tool_friction, on_steel", [(0.0, 5.0), (25.0, 25.0)])
+def test_a_grain_on_a_tool_slides_at_the_soils_tool_friction_or_else_at_the_lesser_angle(tool_friction, on_steel):
+    """Grains of 5° friction, one touching a steel sphere (a tool): without a tool friction the grain-steel contact
+    takes the lesser angle, the grain's 5° (YADE's Ip2), not the steel's 25°; with `tool_friction_deg` 25 it takes
+    25°, and the grains' contact keeps its 5°."""
+    import os
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-c", TOOL, str(tool_friction)], capture_output=True, text=True,
+                       cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["tool"] == pytest.approx(on_steel, abs=1e-6) and out["grains"] == pytest.approx(5.0, abs=1e-6)
+
+
 STRUCK = """
 import json, sys
 from scripts.yadeboot import boot

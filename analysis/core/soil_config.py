@@ -35,10 +35,13 @@ SOIL_FIELDS = {
     "bond_stretch": Field(0.0, 1.0, meaning="how far a ductile bond held at its tensile strength stretches before it "
                           "parts, in radii of the smaller grain (YADE's CohFrictPhys.unpMax over r_min), as a moist "
                           "soil's water bridge necks before it snaps; 0: it parts once its strength is passed"),
+    "tool_friction_deg": Field(0.0, 45.0, unit="deg", meaning="friction of a grain on a tool's steel (the cone, the "
+                               "punches), whatever the grain's own; 0: the lesser of the grain's and the steel's 25° "
+                               "(YADE's Ip2 takes the lesser of two materials' angles)"),
 }
 # optional in a soil config; a run's id leaves them out
 SOIL_DEFAULTS = {"new_contact_cohesion": 1.0, "bond_fragile": 1, "pressed_adhesion": 0.0, "bond_stretch": 0.0,
-                 "adhesion_onset": 0.0, "adhesion_share": 0.0}
+                 "adhesion_onset": 0.0, "adhesion_share": 0.0, "tool_friction_deg": 0.0}
 SOILS = ("clay", "loam", "sand")
 SOIL_COLOURS = {"clay": "tab:brown", "loam": "tab:olive", "sand": "tab:orange"}    # one colour a soil in every plot
 
@@ -64,6 +67,7 @@ class Soil:
     bond_stretch: float = 0.0           # radii of r_min a ductile bond stretches at its strength before it parts
     adhesion_onset: float = 0.0         # Pa: times r_min², the compression below which no pressed re-adhesion acts
     adhesion_share: float = 0.0         # the intact bond's share a contact held pressed past the onset re-adheres at
+    tool_friction_deg: float = 0.0      # grain on a tool's steel, whatever the grain's; 0: the lesser of the two
 
     def __post_init__(self):
         if self.bond_stretch > 0 and self.bond_fragile:
