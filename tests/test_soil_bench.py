@@ -871,6 +871,18 @@ def test_the_checks_read_their_own_box_and_take_a_scene_a_twin_already_ran(tmp_p
         bench.load_config(tmp_path / "b.toml")
 
 
+def snippet(code: str, *args: str):
+    """Run a YADE snippet (`code`, with `args` as its sys.argv) in its own process from the project's root; its last
+    stdout line as JSON, or an AssertionError with its stderr's tail."""
+    import os
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=bench.ROOT,
+                       env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
 REBOUND = """
 import json, sys
 from scripts.yadeboot import boot
@@ -897,13 +909,7 @@ print(json.dumps(out))
 def test_the_local_damping_gives_one_grain_striking_a_wall_a_restitution_below_one():
     """The contact law alone is elastic in compression: a grain striking a wall without the local damping comes back
     at its own speed; with a local damping λ at √((1 − λ)/(1 + λ)) of it (the README's reading of the damping)."""
-    import os
-    import subprocess
-    import sys
-    r = subprocess.run([sys.executable, "-c", REBOUND, "0", "0.1", "0.2", "0.3"], capture_output=True, text=True,
-                       cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
-    assert r.returncode == 0, r.stderr[-2000:]
-    restitution = {float(k): v for k, v in json.loads(r.stdout.strip().splitlines()[-1]).items()}
+    restitution = {float(k): v for k, v in snippet(REBOUND, "0", "0.1", "0.2", "0.3").items()}
     for lam, e in restitution.items():
         assert e == pytest.approx(math.sqrt((1 - lam) / (1 + lam)), abs=0.01), (lam, e)
 
@@ -946,13 +952,7 @@ def test_grains_pressed_together_re_adhere_by_the_force_that_pressed_them_up_to_
     """Two grains whose new contact gets no bond, pressed together by 2 N, then pulled by `pull`: with pressed
     re-adhesion α they hold up to α × 2 N, and never past the intact bond (176 kPa × r² = 6.3 N); without it they
     part at once."""
-    import os
-    import subprocess
-    import sys
-    r = subprocess.run([sys.executable, "-c", PRESSED, str(alpha), "2.0", str(pull), "0", "0"], capture_output=True, text=True,
-                       cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
-    assert r.returncode == 0, r.stderr[-2000:]
-    out = json.loads(r.stdout.strip().splitlines()[-1])
+    out = snippet(PRESSED, str(alpha), "2.0", str(pull), "0", "0")
     assert out["bond"] == pytest.approx(min(alpha * 2.0, 176e3 * 0.006 ** 2), rel=0.02)
     assert out["apart"] is apart
 
@@ -963,13 +963,7 @@ def test_a_contact_re_adheres_only_once_pressed_past_the_onset(onset, bond):
     """`adhesion_onset`: two grains pressed together by 2 N at α 0.5 re-adhere by α × 2 N = 1 N where the onset's
     force (onset × r², r = 6 mm) is under the press (30 kPa: 1.08 N), not at all where it is over (80 kPa: 2.88 N),
     and then a pull of 0.5 N parts them."""
-    import os
-    import subprocess
-    import sys
-    r = subprocess.run([sys.executable, "-c", PRESSED, "0.5", "2.0", "0.5", str(onset), "0"], capture_output=True,
-                       text=True, cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
-    assert r.returncode == 0, r.stderr[-2000:]
-    out = json.loads(r.stdout.strip().splitlines()[-1])
+    out = snippet(PRESSED, "0.5", "2.0", "0.5", str(onset), "0")
     assert out["bond"] == pytest.approx(bond, rel=0.02, abs=1e-9) and out["apart"] is (bond == 0.0)
 
 
@@ -981,13 +975,7 @@ def test_a_contact_held_past_the_onset_re_adheres_at_the_share_of_the_intact_bon
     """`adhesion_share`: two grains pressed together past the onset (30 kPa × r² = 1.08 N) re-adhere at half the
     intact bond (0.5 × 176 kPa × r² = 3.17 N) whether pressed by 2 N or 4 N, hold a pull under it and part over it;
     pressed by 0.5 N, under the onset, they do not re-adhere."""
-    import os
-    import subprocess
-    import sys
-    r = subprocess.run([sys.executable, "-c", PRESSED, "0", str(press), str(pull), "30e3", "0.5"], capture_output=True,
-                       text=True, cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
-    assert r.returncode == 0, r.stderr[-2000:]
-    out = json.loads(r.stdout.strip().splitlines()[-1])
+    out = snippet(PRESSED, "0", str(press), str(pull), "30e3", "0.5")
     assert out["bond"] == pytest.approx(bond, rel=0.02, abs=1e-9) and out["apart"] is apart
 
 
@@ -1019,13 +1007,7 @@ def test_a_grain_on_a_tool_slides_at_the_soils_tool_friction_or_else_at_the_less
     """Grains of 5° friction, one touching a steel sphere (a tool): without a tool friction the grain-steel contact
     takes the lesser angle, the grain's 5° (YADE's Ip2), not the steel's 25°; with `tool_friction_deg` 25 it takes
     25°, and the grains' contact keeps its 5°."""
-    import os
-    import subprocess
-    import sys
-    r = subprocess.run([sys.executable, "-c", TOOL, str(tool_friction)], capture_output=True, text=True,
-                       cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
-    assert r.returncode == 0, r.stderr[-2000:]
-    out = json.loads(r.stdout.strip().splitlines()[-1])
+    out = snippet(TOOL, str(tool_friction))
     assert out["tool"] == pytest.approx(on_steel, abs=1e-6) and out["grains"] == pytest.approx(5.0, abs=1e-6)
 
 
@@ -1062,13 +1044,7 @@ def test_a_grain_striking_another_re_adheres_without_an_onset_and_not_past_one(o
     """A grain striking a fixed one at 0.5 m/s presses it far past the onset's force (30 kPa × r² = 1.08 N) for less
     than the bond rules' two passes: at α 0.5 with no onset the strike bonds them (α × the force at the pass); with
     the onset it leaves no bond."""
-    import os
-    import subprocess
-    import sys
-    r = subprocess.run([sys.executable, "-c", STRUCK, str(onset), "0.5"], capture_output=True, text=True,
-                       cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
-    assert r.returncode == 0, r.stderr[-2000:]
-    out = json.loads(r.stdout.strip().splitlines()[-1])
+    out = snippet(STRUCK, str(onset), "0.5")
     assert out["peak"] > 3 * 30e3 * 0.006 ** 2, out
     assert (out["bond"] > 0) is bonded, out
 
@@ -1077,13 +1053,7 @@ def test_a_grain_striking_another_re_adheres_without_an_onset_and_not_past_one(o
 def test_a_tools_steel_sphere_pressed_into_a_grain_never_re_adheres():
     """A punch's or cone's tip is a steel sphere: pressed into a grain by 2 N at α 0.5, the contact gets no bond,
     and the least pull parts them."""
-    import os
-    import subprocess
-    import sys
-    r = subprocess.run([sys.executable, "-c", PRESSED, "0.5", "2.0", "0.05", "0", "0", "steel"], capture_output=True, text=True,
-                       cwd=bench.ROOT, env={**os.environ, "PYTHONPATH": str(bench.ROOT)}, timeout=300)
-    assert r.returncode == 0, r.stderr[-2000:]
-    out = json.loads(r.stdout.strip().splitlines()[-1])
+    out = snippet(PRESSED, "0.5", "2.0", "0.05", "0", "0", "steel")
     assert out["bond"] == 0.0 and out["apart"] is True
 
 
