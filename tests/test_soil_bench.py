@@ -1559,3 +1559,35 @@ def test_a_column_on_fixed_grains_holds_its_toe_where_a_plane_of_the_grains_fric
     assert runs["grains"]["floor"] == "grains"
     assert runs["grains"]["angle_deg"] > runs["plane"]["angle_deg"] + 5, runs
     assert runs["grains"]["runout_mm"] < 0.8 * runs["plane"]["runout_mm"], runs
+
+
+def test_a_cone_at_the_soils_field_friction_on_steel_is_named_and_run_with_it(tmp_path, monkeypatch):
+    """[cone_check] tool_friction = "field": the cone runs with the soil's friction on steel from
+    configs/field/tool_friction.csv (a probe's own friction stands) and is named by it, so a cone at the grain's
+    friction is not reused; "grain" keeps the earlier name; another word, or a value outside its row's range, is
+    refused with the field and the allowed values."""
+    params = {"normal_cohesion": 8e4, "friction_deg": 6.0, "pressed_adhesion": 0.3, "rolling_friction": 0.3,
+              "damping": 0.15}
+    seen = []
+    monkeypatch.setattr(bench, "cone_scene", lambda args, log: seen.append(args) or {"cone_index_pa": 4.5e5})
+    cfg = bench.load_config(soil="clay")
+    field = {**cfg, "cone_check": {**cfg["cone_check"], "tool_friction": "field"}}
+    grain = {**cfg, "cone_check": {**cfg["cone_check"], "tool_friction": "grain"}}
+    value = bench.field_tool_friction("clay")
+    t = pd.read_csv(bench.TOOL_FRICTION, comment="#").set_index("soil")
+    assert t.loc["clay", "lo_deg"] <= value <= t.loc["clay", "hi_deg"]
+    assert bench.cone_path("clay", params, grain, tmp_path)[0] == bench.cone_path("clay", params, cfg, tmp_path)[0]
+    assert bench.cone_path("clay", params, field, tmp_path)[0] != bench.cone_path("clay", params, cfg, tmp_path)[0]
+    bench.cone_check("clay", params, field, tmp_path)
+    bench.cone_check("clay", {**params, "tool_friction_deg": 30.0}, field, tmp_path)
+    bench.cone_check("clay", params, cfg, tmp_path)
+    named = [[a for a in args if a.startswith("tool_friction_deg=")] for args in seen]
+    assert named == [[f"tool_friction_deg={value}"], ["tool_friction_deg=30.0"], []]
+    bad = tmp_path / "bad.toml"
+    bad.write_text(f'base = "{bench.CONFIG}"\n[cone_check]\ntool_friction = "steel"\n')
+    with pytest.raises(ConfigError, match="cone_check.tool_friction = 'steel': allowed \"grain\""):
+        bench.load_config(bad, "clay")
+    table = tmp_path / "tool_friction.csv"
+    table.write_text("soil,lo_deg,hi_deg,value_deg,source\nclay,10,21,25,made up\n")
+    with pytest.raises(ConfigError, match="clay.value_deg = 25: allowed 10-21"):
+        bench.field_tool_friction("clay", table)

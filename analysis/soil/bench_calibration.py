@@ -36,6 +36,8 @@ from analysis.soil.shear import READING, fit_tests
 
 CONFIG = ROOT / "configs/bench_calibration.toml"
 TARGETS = ROOT / "configs/field/soil_targets.csv"
+TOOL_FRICTION = ROOT / "configs/field/tool_friction.csv"
+TOOL_FRICTIONS = ("grain", "field")   # [cone_check] tool_friction: the lesser of the grain's and the steel's, or the soil's
 RESPONSES = ("c_kpa", "phi_deg", "collapse_deg")
 SHEAR_RESPONSES = ("c_kpa", "phi_deg")    # the shear box's: what its size check moves
 UNTESTABLE = 3         # a bench scene's exit code when it stopped the test itself (scripts/shear.py, scripts/collapse.py)
@@ -177,6 +179,10 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
             raise ConfigError(f"{path}: [cone_check] lacks {', '.join(sorted(need_cone - set(cone)))}")
         if not 0 < float(cone["tolerance"]) < 1:
             raise ConfigError(f"{path}: cone_check.tolerance = {cone['tolerance']}: allowed (0, 1), a share of Table 2")
+        if cone.get("tool_friction", "grain") not in TOOL_FRICTIONS:
+            raise ConfigError(f"{path}: cone_check.tool_friction = {cone['tool_friction']!r}: allowed \"grain\" (a grain "
+                              "slides on the cone at the lesser of its own and the steel's friction) or \"field\" (at "
+                              f"the soil's friction on steel, {TOOL_FRICTION.relative_to(ROOT)})")
         if not 0.5 <= float(cone.get("transfer", 1.0)) <= 1.5:
             raise ConfigError(f"{path}: cone_check.transfer = {cone['transfer']}: allowed 0.5-1.5, the runs' grains' "
                               "cone index over this cone's")
@@ -206,6 +212,19 @@ def load_targets(soil: str, path: Path = TARGETS) -> pd.DataFrame:
         raise ConfigError(f"{path}: soil {soil!r} needs a target for each of {', '.join(RESPONSES)}")
     t["value"] = (t["lo"] + t["hi"]) / 2
     return t
+
+
+def field_tool_friction(soil: str, path: Path = TOOL_FRICTION) -> float:
+    """The soil's friction on the tools' steel, degrees: the value of configs/field/tool_friction.csv, checked to lie
+    in its row's range and in `tool_friction_deg`'s."""
+    from analysis.core.soil_config import SOIL_FIELDS
+    t = pd.read_csv(path, comment="#").set_index("soil")
+    if soil not in t.index:
+        raise ConfigError(f"{path}: soil {soil!r} has no row; allowed a row per soil with lo_deg, hi_deg, value_deg")
+    lo, hi, value = (float(t.loc[soil, k]) for k in ("lo_deg", "hi_deg", "value_deg"))
+    if not lo <= value <= hi:
+        raise ConfigError(f"{path}: {soil}.value_deg = {value:g}: allowed {lo:g}-{hi:g}, its row's range")
+    return SOIL_FIELDS["tool_friction_deg"].check(f"{path}: {soil}.value_deg", value)
 
 
 def collapse_size(cfg: dict) -> list:
@@ -1042,10 +1061,13 @@ def posterior_packings(soil: str, box_mm, folder: Path = BENCH_DIR, out_dir: Pat
 
 def cone_path(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, seed: int | None = None) -> tuple[Path, dict]:
     """Where `cone_check` keeps the set's cone summary on packing `seed` (cfg's [cone_check] packing when None), named
-    by the parameters, the calibration's fixed ones and the cone's bed, and that [cone_check] with its seed."""
+    by the parameters, the calibration's fixed ones and the cone's bed, and that [cone_check] with its seed and, for
+    tool_friction = "field", the soil's friction on steel in place of the word (`tool_friction_deg`)."""
     c = dict(cfg["cone_check"])
     if seed is not None:
         c["seed"] = int(seed)
+    if c.pop("tool_friction", "grain") == "field":      # named only when set: the earlier cones keep their names
+        c["tool_friction_deg"] = field_tool_friction(soil)
     key = {"params": dict(sorted(rounded(params).items())), "fixed": dict(sorted(cfg.get("fixed", {}).items())),
            "cone": {k: v for k, v in sorted(c.items()) if k not in ("tolerance", "transfer")}}
     return Path(out_dir) / "cone" / f"{soil}-s{c['seed']}-{digest(key, 10)}.json", c
@@ -1065,6 +1087,8 @@ def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, se
                 "--lateral", "periodic", "--seed", str(c["seed"]), "--cone-scale", str(c["cone_scale"]),
                 "--cone-speed", str(c["speed_m_s"]), "--threads", "1", "--out", str(path.parent)]
         items = overrides(params, cfg.get("fixed"))
+        if "tool_friction_deg" in c and "tool_friction_deg" not in params:     # a probe's own friction stands
+            items.append(f"tool_friction_deg={c['tool_friction_deg']}")
         bond = dict(item.split("=") for item in items).get("normal_cohesion")
         summary = cone_scene([*args, *(["--cohesion", bond] if bond else []),
                               *[a for item in items for a in ("--test-set", item)]], path.with_suffix(".log"))

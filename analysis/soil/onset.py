@@ -37,8 +37,9 @@ from analysis.soil.bench_calibration import (cone_path, cone_range, deepest_marg
 CELL_CONFIG = ROOT / "configs/bench_calibration_cell.toml"
 ONSET_CONFIG = ROOT / "configs/bench_calibration_onset.toml"
 TERMS = ("normal_cohesion", "friction_deg", "pressed_adhesion", "rolling_friction", "damping", "bond_stretch")
-OWN = ("shear_cohesion", "adhesion_share", "tool_friction_deg")   # a probe's own contact parameters besides TERMS:
-# a shear bond of its own (the filter's sets hold it equal to the normal bond), the share law, the tools' friction
+OWN = ("shear_cohesion", "adhesion_share", "tool_friction_deg", "young")   # a probe's own contact parameters besides TERMS:
+# a shear bond of its own (the filter's sets hold it equal to the normal bond), the share law, the tools' friction,
+# the contact modulus
 SCALE = {"normal_cohesion": 1e3}          # the bond in kPa in the planes
 # a test's scene options kept in its row, each with its type: a cone's grains, size and speed
 OPTIONS = {"--resolution": ("resolution", str), "--cone-scale": ("cone_scale", float),
