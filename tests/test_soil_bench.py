@@ -1591,3 +1591,21 @@ def test_a_cone_at_the_soils_field_friction_on_steel_is_named_and_run_with_it(tm
     table.write_text("soil,lo_deg,hi_deg,value_deg,source\nclay,10,21,25,made up\n")
     with pytest.raises(ConfigError, match="clay.value_deg = 25: allowed 10-21"):
         bench.field_tool_friction("clay", table)
+
+
+def test_a_resumed_batch_prints_a_line_for_each_job_that_ran_and_for_the_last_not_for_each_kept_one(monkeypatch):
+    """`in_parallel`: kept results (done within REUSED_S) print no line of their own; each job that ran prints one
+    with an ETA from the jobs that ran, and the last job prints one whichever it was; results keep the jobs' order."""
+    import time as clock
+    lines = []
+    monkeypatch.setattr(bench, "say", lines.append)
+    monkeypatch.setattr(bench, "REUSED_S", 0.05)
+
+    def fn(job):
+        if job in (2, 3):
+            clock.sleep(0.1)        # these ran; the others were kept
+        return job * 10
+    assert bench.in_parallel(fn, [0, 1, 2, 3, 4], 1, "calibrate clay", "evaluations") == [0, 10, 20, 30, 40]
+    assert [line.split(" evaluations")[0] for line in lines] == ["calibrate clay: 3/5", "calibrate clay: 4/5",
+                                                                 "calibrate clay: 5/5"]
+    assert "ETA 0 s" in lines[-1] and "unknown" not in "".join(lines)

@@ -501,8 +501,9 @@ REUSED_S = 5.0          # s: a job done sooner reused kept results (a twin's eva
 
 def in_parallel(fn, jobs: list, workers: int, label: str, unit: str) -> list:
     """fn of each job, `workers` at a time (threads, each starting its own YADE process), in the jobs' order;
-    after each one says how many are done, the time so far and an ETA from the jobs that ran (a job done within
-    REUSED_S reused a kept result and says nothing of the time the others take)."""
+    after each one that ran, and after the last, says how many are done, the time so far and an ETA from the jobs
+    that ran (a job done within REUSED_S reused a kept result: it says nothing of the time the others take, and a
+    resumed calibration's kept jobs print no line each)."""
     done: list = []
     ran: list[float] = []
     wall0 = time.time()
@@ -514,6 +515,8 @@ def in_parallel(fn, jobs: list, workers: int, label: str, unit: str) -> list:
         took = time.time() - t0
         if took > REUSED_S:
             ran.append(took)
+        elif len(done) < len(jobs):
+            return out
         left = len(jobs) - len(done)
         eta = f"{sum(ran) / len(ran) * math.ceil(left / workers):.0f} s" if ran else "unknown until one has run"
         say(f"{label}: {len(done)}/{len(jobs)} {unit} done, {time.time() - wall0:.0f} s, ETA {eta}")
