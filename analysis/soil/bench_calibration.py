@@ -1089,9 +1089,8 @@ def cone_check(soil: str, params: dict, cfg: dict, out_dir: Path = BENCH_DIR, se
         args = ["--soil", soil, "--resolution", c["resolution"], "--size", ",".join(map(str, c["size_mm"])),
                 "--lateral", "periodic", "--seed", str(c["seed"]), "--cone-scale", str(c["cone_scale"]),
                 "--cone-speed", str(c["speed_m_s"]), "--threads", "1", "--out", str(path.parent)]
-        items = overrides(params, cfg.get("fixed"))
-        if "tool_friction_deg" in c and "tool_friction_deg" not in params:     # a probe's own friction stands
-            items.append(f"tool_friction_deg={c['tool_friction_deg']}")
+        held = {k: c[k] for k in ("tool_friction_deg",) if k in c}     # held like a fixed one: a probe's own stands
+        items = overrides(params, {**cfg.get("fixed", {}), **held})
         bond = dict(item.split("=") for item in items).get("normal_cohesion")
         summary = cone_scene([*args, *(["--cohesion", bond] if bond else []),
                               *[a for item in items for a in ("--test-set", item)]], path.with_suffix(".log"))
