@@ -1,5 +1,7 @@
-"""The house rules a newcomer relies on: ruff passes, and imports run one way between the analysis layers."""
+"""The house rules a newcomer relies on: ruff passes, imports run one way between the analysis layers, and every
+link between the project's pages leads somewhere."""
 import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -64,3 +66,51 @@ def test_analysis_never_imports_a_scene():
 @pytest.mark.parametrize("module", ["analysis.holes.compare", "analysis.core.runner", "analysis.cli"])
 def test_layer_names(module):
     assert layer(module) is not None
+
+
+def heading_anchor(heading: str) -> str:
+    """A Markdown heading's anchor as GitHub makes it: lower case, code ticks and punctuation dropped, spaces as
+    hyphens.
+
+    >>> heading_anchor("### The soil's bond (`soil_bond.csv`)")
+    'the-soils-bond-soil_bondcsv'
+    """
+    text = heading.lstrip("#").strip().replace("`", "").lower()
+    return re.sub(r"[^\w\- ]", "", text).replace(" ", "-")
+
+
+def page_links(page: Path) -> list[tuple[Path, str, str]]:
+    """Every relative link of a page: (the file it names, the anchor or "", the link as written)."""
+    out = []
+    for link in re.findall(r"\]\(([^)\s]+)\)", page.read_text()):
+        if re.match(r"[a-z]+:", link):
+            continue
+        path, _, anchor = link.partition("#")
+        out.append(((page.parent / path).resolve() if path else page, anchor, link))
+    return out
+
+
+PAGES = [ROOT / "README.md", ROOT / "CHANGELOG.md", ROOT / "configs/README.md",
+         *sorted((ROOT / "results").rglob("README.md"))]
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_link_between_the_pages_leads_to_a_file_and_heading(page):
+    broken = []
+    for target, anchor, link in page_links(page):
+        if not target.exists():
+            broken.append(f"{link}: no such file")
+        elif anchor and target.suffix == ".md":
+            anchors = {heading_anchor(line) for line in target.read_text().splitlines() if line.startswith("#")}
+            if anchor not in anchors:
+                broken.append(f"{link}: no such heading")
+    assert not broken, broken
+
+
+def test_a_link_to_a_missing_heading_is_found(tmp_path):
+    page = tmp_path / "README.md"
+    page.write_text("# Top\n\n[up](#top) [gone](#nowhere) [file](other.md)\n")
+    assert [(t.name, a) for t, a, _ in page_links(page)] == [("README.md", "top"), ("README.md", "nowhere"),
+                                                              ("other.md", "")]
+    anchors = {heading_anchor(line) for line in page.read_text().splitlines() if line.startswith("#")}
+    assert "top" in anchors and "nowhere" not in anchors
