@@ -1151,8 +1151,10 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
     path = Path(out_dir) / f"{soil}-cones{'-runs-grains' if runs_grains else ''}.csv"
     table = after_earlier(table, path)
     lo, hi = cone_range(soil, cfg)
-    atomic_csv(table.round(4), path, f"./holes calibrate --soil {soil} --bench --cones ID,...; the cone index of "
-               f"[cone_check] beside each evaluation's bench responses; Table 2 ± tolerance: {lo:g}-{hi:g} kPa")
+    where = (" --runs-grains", " at the runs' grains") if runs_grains else ("", "")
+    atomic_csv(table.round(4), path, f"./holes calibrate --soil {soil} --bench --cones ID,...{where[0]}; the cone "
+               f"index of [cone_check]{where[1]} beside each evaluation's bench responses; Table 2 ± tolerance: "
+               f"{lo:g}-{hi:g} kPa")
     return table
 
 
