@@ -172,8 +172,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(results/calibration/bench/<soil>-cone-transfer.csv)")
     p.add_argument("--probe", type=parameter_set, action="append", default=None, metavar="NAME=VALUE,...",
                    help="with --bench: no calibration; this parameter set's bench responses and cone index on the "
-                        "calibration packing (every calibrated parameter named, other contact parameters such as a "
-                        "shear_cohesion of its own besides; repeat for more sets, run --workers "
+                        "calibration packing or on each of --seeds (every calibrated parameter named, other contact "
+                        "parameters such as a shear_cohesion of its own besides; repeat for more sets, run --workers "
                         "at a time): results/calibration/bench/<soil>-probes.csv")
     p.set_defaults(func=cmd_calibrate)
     p = sub.add_parser("cone-checks", help="the calibrated beds checked: replicate seeds, a 1.5x wider bed, the "

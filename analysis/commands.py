@@ -231,7 +231,7 @@ def cmd_calibrate_bench(args) -> int:
         checks = {"--size-check": lambda: size_checked(args, cfg, out_dir),
                   "--cones": lambda: bench.cones(args.soil, args.cones, cfg, out_dir, workers=cfg["workers"],
                                                 runs_grains=args.runs_grains),
-                  "--probe": lambda: bench.probes(args.soil, args.probe, cfg, out_dir),
+                  "--probe": lambda: bench.probes(args.soil, args.probe, cfg, out_dir, args.seeds),
                   "--cone-transfer": lambda: bench.cone_transfer(args.soil, args.seeds or [1], cfg, out_dir,
                                                                  workers=cfg["workers"]).round(2),
                   "--check-deepest": lambda: pd.DataFrame(bench.check_deepest(args.soil, cfg, out_dir)).T,

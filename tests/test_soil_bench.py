@@ -661,10 +661,10 @@ def test_the_planes_take_each_evaluation_once_with_its_three_packing_cone(tmp_pa
 
 
 def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_path, monkeypatch, capsys):
-    """`calibrate --bench --probe`: each chosen set's bench responses and cone on the calibration packing in
-    <soil>-probes.csv, earlier probes kept and none rerun; a set may name a shear bond of its own, which the scenes
-    get; a set naming fewer than the calibrated parameters, or a value out of its range, is refused with exit 2
-    before any scene."""
+    """`calibrate --bench --probe`: each chosen set's bench responses and cone on the calibration packing (or on
+    each of --seeds) in <soil>-probes.csv, earlier probes kept and none rerun; a set may name a shear bond of its
+    own, which the scenes get; a set naming fewer than the calibrated parameters, or a value out of its range, is
+    refused with exit 2 before any scene."""
     from analysis.cli import main
     ran = []
 
@@ -687,6 +687,8 @@ def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_
     own_shear = bench.probes("loam", [{**sets[0], "shear_cohesion": 2.4e5}], cfg, tmp_path)
     assert len(own_shear) == 3 and own_shear.shear_cohesion.iloc[-1] == 2.4e5 and own_shear.shear_cohesion.iloc[:2].isna().all()
     assert "shear_cohesion=240000.0" in bench.overrides({**sets[0], "shear_cohesion": 2.4e5})
+    on_packings = bench.probes("loam", sets[1:], cfg, tmp_path, seeds=[2, 3])
+    assert list(on_packings.seed.iloc[-2:]) == [2, 3] and len(on_packings) == 5
     with pytest.raises(ConfigError, match="allowed every calibrated parameter"):
         bench.probes("loam", [{"normal_cohesion": 1e5}], cfg, tmp_path)
     assert main(["calibrate", "--soil", "loam", "--bench", "--probe", "normal_cohesion=1e5"]) == 2
@@ -696,7 +698,7 @@ def test_a_probe_runs_chosen_sets_with_their_cone_and_refuses_a_partial_set(tmp_
     assert stop.value.code == 2 and "friction_deg" in capsys.readouterr().err
     assert main(["calibrate", "--soil", "loam", "--probe", "friction_deg=20"]) == 2
     assert "--probe: allowed only with --bench" in capsys.readouterr().err
-    assert ran == [1.2e5, 0.8e5, 1.2e5]
+    assert ran == [1.2e5, 0.8e5, 1.2e5, 0.8e5, 0.8e5]
 
 
 def test_a_soils_own_bench_settings_replace_the_common_ones_and_bad_ones_are_refused(tmp_path):

@@ -1158,8 +1158,10 @@ def cones(soil: str, ids: list[str], cfg: dict, out_dir: Path = BENCH_DIR, worke
     return table
 
 
-def probes(soil: str, sets: list[dict], cfg: dict, out_dir: Path = BENCH_DIR) -> pd.DataFrame:
-    """Chosen parameter sets' bench responses and cone index on the calibration's (first) packing, cfg's workers at a time:
+def probes(soil: str, sets: list[dict], cfg: dict, out_dir: Path = BENCH_DIR,
+           seeds: list[int] | None = None) -> pd.DataFrame:
+    """Chosen parameter sets' bench responses and cone index on the calibration's (first) packing, or on each of
+    `seeds`, with the filter's tests and cone, cfg's workers at a time:
     where a soil's prior should lie, looked at before a filter spends its iterations there. Each set names every
     calibrated parameter (cfg's bounds) and may name other contact parameters the filter holds (a shear bond of its
     own: `shear_cohesion`); each evaluation is a run folder like the filter's and reused by it. Writes
@@ -1169,14 +1171,14 @@ def probes(soil: str, sets: list[dict], cfg: dict, out_dir: Path = BENCH_DIR) ->
         if not names <= set(p):
             raise ConfigError(f"--probe {','.join(sorted(p))}: allowed every calibrated parameter "
                               f"{', '.join(sorted(names))}, each NAME=VALUE, and other contact parameters besides")
-    seed = filter_seeds(cfg)[0]
-    rows = evaluate_all(soil, [(seed, dict(p)) for p in sets], cfg, out_dir, with_cone=True)
+    seeds = seeds or filter_seeds(cfg)[:1]
+    rows = evaluate_all(soil, [(s, dict(p)) for p in sets for s in seeds], cfg, out_dir, with_cone=True)
     table = pd.DataFrame(rows).drop(columns=["tau_peak_kpa"], errors="ignore")
     path = Path(out_dir) / f"{soil}-probes.csv"
     table = after_earlier(table, path)
     lo, hi = cone_range(soil, cfg)
     atomic_csv(table.round(4), path, f"./holes calibrate --soil {soil} --bench --probe NAME=VALUE,...; chosen "
-               f"parameter sets' bench responses and [cone_check] cone index on packing {seed}; Table 2 ± "
+               f"parameter sets' bench responses and [cone_check] cone index on the packing of each row's seed; Table 2 ± "
                f"tolerance: {lo:g}-{hi:g} kPa")
     return table
 
