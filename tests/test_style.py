@@ -1,6 +1,7 @@
 """The house rules a newcomer relies on: ruff passes, imports run one way between the analysis layers, and every
 link between the project's pages leads somewhere."""
 import ast
+import functools
 import re
 import subprocess
 import sys
@@ -79,6 +80,12 @@ def heading_anchor(heading: str) -> str:
     return re.sub(r"[^\w\- ]", "", text).replace(" ", "-")
 
 
+@functools.cache
+def page_anchors(page: Path) -> frozenset[str]:
+    """The anchors of every heading of a Markdown page, read once per page."""
+    return frozenset(heading_anchor(line) for line in page.read_text().splitlines() if line.startswith("#"))
+
+
 def page_links(page: Path) -> list[tuple[Path, str, str]]:
     """Every relative link of a page: (the file it names, the anchor or "", the link as written)."""
     out = []
@@ -100,10 +107,8 @@ def test_every_link_between_the_pages_leads_to_a_file_and_heading(page):
     for target, anchor, link in page_links(page):
         if not target.exists():
             broken.append(f"{link}: no such file")
-        elif anchor and target.suffix == ".md":
-            anchors = {heading_anchor(line) for line in target.read_text().splitlines() if line.startswith("#")}
-            if anchor not in anchors:
-                broken.append(f"{link}: no such heading")
+        elif anchor and target.suffix == ".md" and anchor not in page_anchors(target):
+            broken.append(f"{link}: no such heading")
     assert not broken, broken
 
 
@@ -112,5 +117,4 @@ def test_a_link_to_a_missing_heading_is_found(tmp_path):
     page.write_text("# Top\n\n[up](#top) [gone](#nowhere) [file](other.md)\n")
     assert [(t.name, a) for t, a, _ in page_links(page)] == [("README.md", "top"), ("README.md", "nowhere"),
                                                               ("other.md", "")]
-    anchors = {heading_anchor(line) for line in page.read_text().splitlines() if line.startswith("#")}
-    assert "top" in anchors and "nowhere" not in anchors
+    assert "top" in page_anchors(page) and "nowhere" not in page_anchors(page)
