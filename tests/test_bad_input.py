@@ -1,9 +1,12 @@
 """Every Field of every command refuses every value outside it, generated from the Field itself (as scikit-learn
 generates invalid parameter values), so a new key is covered without a new test: a run's own fields, its preset's,
-the disk's, the sleeve's and the soil's through a run's overrides, and every command-line option typed by a Field,
-each refused before anything runs (in-process: no YADE, nothing written) with the field and its allowed range."""
+the disk's, the sleeve's and the soil's through a run's overrides and a bench calibration's prior, and every
+command-line option typed by a Field, each refused before anything runs (in-process: no YADE, nothing written)
+with the field and its allowed range."""
 import argparse
+import json
 import math
+import shutil
 
 import pytest
 
@@ -12,6 +15,7 @@ from analysis.core.config import DISK_FIELDS, PRESET_FIELDS, SLEEVE_FIELDS
 from analysis.core.schema import invalid_values, ConfigError, Field
 from analysis.core.soil_config import SOIL_FIELDS
 from analysis.core.run_spec import RUN_FIELDS, arguments, plan
+from analysis.soil import bench_calibration as bench
 
 SPEC_FIELDS = {k: f for k, f in {**RUN_FIELDS, **PRESET_FIELDS}.items()
                if "." not in k and k in plan.__globals__["RunSpec"].__dataclass_fields__ and f.kind is not str
@@ -51,6 +55,40 @@ def test_the_sleeves_fields_through_a_run(key, bad):
 @pytest.mark.parametrize("key, bad", cases(SOIL_FIELDS), ids=str)
 def test_the_soils_fields_through_a_run(key, bad):
     refused(lambda: plan("clay", "test", overrides={key: bad}), key)
+
+
+BENCH_PRIOR = {k: f for k, f in SOIL_FIELDS.items() if k in bench.load_config()["bounds"]}
+
+
+def bench_prior(tmp_path, key: str, rng: str):
+    """A bench config laid over the default one whose clay prior sets `key` to the TOML array `rng`."""
+    shutil.copy(bench.CONFIG, tmp_path)
+    path = tmp_path / "b.toml"
+    path.write_text(f'base = "{bench.CONFIG.name}"\n[soil_bounds.clay]\n{key} = {rng}\n')
+    return path
+
+
+@pytest.mark.parametrize("key, bad", cases(BENCH_PRIOR), ids=str)
+def test_the_soils_fields_in_a_bench_prior(key, bad, tmp_path):
+    """A prior reaching past a contact parameter's range, or not a number, is refused as the bench config is read,
+    before any evaluation draws from it."""
+    def toml(v):
+        return json.dumps(v) if isinstance(v, str) else repr(v)
+    high = bad + 1 if isinstance(bad, (int, float)) else bad
+    path = bench_prior(tmp_path, key, f"[{toml(bad)}, {toml(high)}]")
+    refused(lambda: bench.load_config(path, soil="clay"), f"soil_bounds.clay.{key}")
+
+
+def test_calibrate_refuses_a_prior_past_a_fields_range_with_exit_2(tmp_path, capsys, monkeypatch):
+    """`calibrate --bench` reads its config before any scene: a prior past a field's range exits 2 naming it."""
+    def scene(*_):
+        raise AssertionError("a scene started")
+    for module in ("bench_calibration", "cell"):
+        monkeypatch.setattr(f"analysis.soil.{module}.run_logged", scene)
+    path = bench_prior(tmp_path, "pressed_adhesion", "[0.5, 6.0]")
+    assert cli.main(["calibrate", "--soil", "clay", "--bench", "--config", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "soil_bounds.clay.pressed_adhesion = 6.0" in err and "allowed [0, 5]" in err and "Traceback" not in err, err
 
 
 def typed_options(parser: argparse.ArgumentParser, prefix=()):
