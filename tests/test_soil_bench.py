@@ -74,6 +74,20 @@ def test_a_bad_cone_check_is_refused(tmp_path, line, match):
         bench.load_config(tmp_path / "b.toml")
 
 
+@pytest.mark.parametrize("path", sorted(bench.CONFIG.parent.glob("bench_calibration*.toml")), ids=lambda p: p.name)
+def test_every_bench_config_loads_for_every_soil(path):
+    """Each bench config in configs/ reads for every soil, every prior inside its contact parameter's range."""
+    for soil in ("clay", "loam", "sand"):
+        assert len(bench.load_config(path, soil=soil)["bounds"]) >= 3
+
+
+def test_the_variants_filters_lie_in_folders_of_their_own():
+    """Clay's filter of each bench config keeps its tables (running table, posterior, checks) in its own folder."""
+    configs = sorted(bench.CONFIG.parent.glob("bench_calibration*.toml"))
+    folders = [bench.filter_dir(bench.load_config(p, soil="clay")) for p in configs]
+    assert len(set(folders)) == len(folders), dict(zip((p.name for p in configs), folders))
+
+
 def test_a_soils_own_prior_narrows_the_common_one_and_is_checked(tmp_path):
     common, sand = bench.load_config()["bounds"], bench.load_config(soil="sand")["bounds"]
     assert set(sand) == set(common)
