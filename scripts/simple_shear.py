@@ -3,7 +3,7 @@
     ./holes simple-shear --soil clay --resolution medium --size 120 --stress 50,100,200 --seed 1
 
 The direct shear box's walls and frames reach a few grains into the sample, and at r = 6 mm a box is a few tens of
-grains across: its peaks fall as it grows (results/calibration/README.md). A laboratory's box holds the field
+grains across: its peaks fall as it grows (results/calibration/bench/README.md). A laboratory's box holds the field
 soil's grains by the million, with no grain-scale walls. This cell has no walls at all at the model's grains: a cube
 periodic in x, y and z, sheared on horizontal planes (x moving with z) under a constant vertical stress, as the box
 shears its sample on its horizontal plane under the lid's load, but free to shear where it is weakest.
