@@ -111,6 +111,8 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
             if not isinstance(rng, list) or len(rng) != 2 or not all(
                     isinstance(v, (int, float)) and not isinstance(v, bool) for v in rng) or not rng[0] < rng[1]:
                 raise ConfigError(f"{path}: {where}.{name} = {rng!r}: allowed [lo, hi], two numbers with lo < hi")
+            for value in rng if name in SOIL_FIELDS else ():    # past the contact law's range: refused here, not in
+                SOIL_FIELDS[name].check(f"{path}: {where}.{name}", value)   # every evaluation that draws past it
     turn = [SEED.check(f"{path}: bench.calibration_seed", s) for s in filter_seeds(bench)]
     if not turn or len(set(turn)) < len(turn):
         raise ConfigError(f"{path}: bench.calibration_seed = {bench['calibration_seed']!r}: allowed a packing seed, or a "
@@ -162,11 +164,8 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
     unknown = sorted((set(fixed) | set(bounds)) - set(SOIL_FIELDS))
     if unknown:
         raise ConfigError(f"{path}: {', '.join(unknown)}: allowed soil contact parameters {', '.join(SOIL_FIELDS)}")
-    for where, ranges in {"bounds": cfg.get("bounds", {}), **{f"soil_bounds.{n}": own for n, own in per_soil.items()},
-                          "fixed": {k: [v] for k, v in fixed.items()}}.items():
-        for name, values in ranges.items():               # a prior past the contact law's range fails here, not in
-            for value in values:                          # every evaluation that draws past it
-                SOIL_FIELDS[name].check(f"{path}: {where}.{name}", value)
+    for name, value in fixed.items():
+        SOIL_FIELDS[name].check(f"{path}: fixed.{name}", value)
     screen_sd = bench.get("cone_screen_sd", 0)
     if not isinstance(screen_sd, (int, float)) or isinstance(screen_sd, bool) or not 0 <= screen_sd <= 10:
         raise ConfigError(f"{path}: cone_screen_sd = {screen_sd!r}: allowed 0 (every evaluation's cone runs) to 10 "
