@@ -29,7 +29,7 @@ from scipy import stats
 from analysis.core.config import SEED
 from analysis.core.io import atomic_csv, atomic_write, say, shown
 from analysis.core.runner import run_logged
-from analysis.core.schema import ROOT, ConfigError, digest
+from analysis.core.schema import ROOT, ConfigError, Field, digest
 from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS
 from analysis.soil.collapse import FLOORS
 from analysis.soil.shear import READING, fit_tests
@@ -108,11 +108,12 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
         if stray:
             raise ConfigError(f"{path}: {where}.{stray[0]}: not in [bounds]; allowed {', '.join(bounds)}")
         for name, rng in ranges.items():
-            if not isinstance(rng, list) or len(rng) != 2 or not all(
-                    isinstance(v, (int, float)) and not isinstance(v, bool) for v in rng) or not rng[0] < rng[1]:
+            if not isinstance(rng, list) or len(rng) != 2:
                 raise ConfigError(f"{path}: {where}.{name} = {rng!r}: allowed [lo, hi], two numbers with lo < hi")
-            for value in rng if name in SOIL_FIELDS else ():    # past the contact law's range: refused here, not in
-                SOIL_FIELDS[name].check(f"{path}: {where}.{name}", value)   # every evaluation that draws past it
+            field = SOIL_FIELDS.get(name, Field())      # each end inside the contact law's range, refused here and not
+            lo, hi = (field.check(f"{path}: {where}.{name}", v) for v in rng)   # in every evaluation that draws
+            if not lo < hi:                             # past it; a name no parameter has is refused below
+                raise ConfigError(f"{path}: {where}.{name} = {rng!r}: allowed [lo, hi], two numbers with lo < hi")
     turn = [SEED.check(f"{path}: bench.calibration_seed", s) for s in filter_seeds(bench)]
     if not turn or len(set(turn)) < len(turn):
         raise ConfigError(f"{path}: bench.calibration_seed = {bench['calibration_seed']!r}: allowed a packing seed, or a "
