@@ -155,3 +155,36 @@ def test_the_deepest_set_lies_as_many_residual_sds_inside_every_range_as_the_pla
     assert min(depth) == pytest.approx(m, abs=1e-6)
     assert 0.5 < got["resid_sd_cone_kpa"] / 20 < 1.6 and 0.5 < got["resid_sd_c_kpa"] < 1.6
     assert onset.deepest(t, {**ranges, "c_kpa": (60, 70)}, bounds, transfer=0.9)["margin_sd"] < 0
+
+
+def test_the_tools_planes_recover_made_up_slopes_and_another_soils_offsets(monkeypatch):
+    """Clay's planes in the seven terms (the modulus per MPa) come back from made-up responses; loam's sets, the same
+    responses shifted, give back the shift, and loam's shifted reach reads the planes plus the shift at its set."""
+    rng = np.random.default_rng(1)
+    spans = [(5e4, 1.5e5), (6, 14), (0.1, 1.0), (0.05, 0.5), (0.1, 0.25), (0.0, 1.0), (4e6, 2e7)]
+    slopes = {"c_kpa": [15, 0.02, -1, 0, -7, 2, 10, -0.15], "phi_deg": [8, 0.05, 0.7, 0.8, 3.6, -3, 2.7, 0.37],
+              "collapse_deg": [10, 0.02, 1.3, 4, 1.5, 35, -1, 0.13], "cone_kpa": [-500, 4.4, 49, -93, 94, 270, 115, 26]}
+    shift = {"c_kpa": -2.0, "phi_deg": 1.5, "collapse_deg": 0.5, "cone_kpa": -100.0}
+
+    def sets(soil, n):
+        t = pd.DataFrame({k: rng.uniform(lo, hi, n) for k, (lo, hi) in zip(onset.TOOLS_TERMS, spans)})
+        x = np.column_stack([t[k] / onset.SCALE.get(k, 1.0) for k in onset.TOOLS_TERMS])
+        for r, c in slopes.items():
+            t[r] = c[0] + x @ np.array(c[1:]) + rng.normal(0, 0.01, n) + (shift[r] if soil == "loam" else 0.0)
+        return t.assign(soil=soil, floor="grains")
+
+    monkeypatch.setattr(onset, "tools_evaluations", lambda bench_dir=None: pd.concat([sets("clay", 30), sets("loam", 4)]))
+    planes, reach = onset.tools_priors()
+    got = planes.set_index("response")
+    for r, c in slopes.items():
+        assert got.loc[r, ["intercept", *onset.TOOLS_TERMS]].to_numpy(float) == pytest.approx(c, abs=0.05 * max(map(abs, c)))
+    loam = reach[reach["soil"] == "loam"].set_index(["prior", "shift"])
+    assert loam.loc[("corner-filter", "own"), [f"offset_{r}" for r in shift]].to_numpy(float) == pytest.approx(
+        list(shift.values()), abs=0.1)
+    assert set(reach[reach["soil"] == "clay"]["shift"]) == {"none"}
+    own = loam.loc[("corner-filter", "own")]
+    x = np.array([own[k] / onset.SCALE.get(k, 1.0) for k in onset.TOOLS_TERMS])
+    for r in slopes:                                    # loam's cone transfer is 1
+        c = got.loc[r, ["intercept", *onset.TOOLS_TERMS]].to_numpy(float)
+        assert own[r] == pytest.approx(c[0] + c[1:] @ x + own[f"offset_{r}"], rel=1e-6)
+    assert 0 <= own["share"] <= 1 and np.isfinite(loam["margin_sd"]).all()

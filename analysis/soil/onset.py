@@ -40,7 +40,10 @@ TERMS = ("normal_cohesion", "friction_deg", "pressed_adhesion", "rolling_frictio
 OWN = ("shear_cohesion", "adhesion_share", "tool_friction_deg", "young")   # a probe's own contact parameters besides TERMS:
 # a shear bond of its own (the filter's sets hold it equal to the normal bond), the share law, the tools' friction,
 # the contact modulus
-SCALE = {"normal_cohesion": 1e3}          # the bond in kPa in the planes
+SCALE = {"normal_cohesion": 1e3, "young": 1e6}     # the bond in kPa and the modulus in MPa in the planes
+TOOLS_TERMS = (*TERMS, "young")                    # the planes of the filters that calibrate the contact modulus too
+TOOLS_CONFIGS = {"tools-filter": ROOT / "configs/bench_calibration_tools.toml",   # the filters with the cone at the
+                 "corner-filter": ROOT / "configs/bench_calibration_corner.toml"}  # soil's friction on steel
 # a test's scene options kept in its row, each with its type: a cone's grains, size and speed
 OPTIONS = {"--resolution": ("resolution", str), "--cone-scale": ("cone_scale", float),
            "--cone-speed": ("cone_speed", float)}
@@ -67,13 +70,13 @@ def cell_evaluations(soil: str = "clay", bench_dir: Path = BENCH_DIR) -> pd.Data
     return pd.DataFrame(rows)
 
 
-def plane(table: pd.DataFrame, response: str) -> tuple[np.ndarray, float, float]:
-    """Least-squares plane of `response` in TERMS (the bond in kPa): intercept then a slope per term, R² and the
-    residual SD (n − 7 degrees of freedom; NaN with fewer than 8 rows)."""
+def plane(table: pd.DataFrame, response: str, terms: tuple = TERMS) -> tuple[np.ndarray, float, float]:
+    """Least-squares plane of `response` in `terms` (the bond in kPa, the modulus in MPa): intercept then a slope per
+    term, R² and the residual SD (n − terms − 1 degrees of freedom; NaN with no more rows than that)."""
     ok = table.dropna(subset=[response])
-    X = np.column_stack([ok[t].fillna(0.0) / SCALE.get(t, 1.0) for t in TERMS])
+    X = np.column_stack([ok[t].fillna(0.0) / SCALE.get(t, 1.0) for t in terms])
     coef, r2, resid = least_squares_plane(X, ok[response].to_numpy(float))
-    dof = len(ok) - len(TERMS) - 1
+    dof = len(ok) - len(terms) - 1
     return coef, r2, float(np.sqrt(np.sum(resid ** 2) / dof)) if dof > 0 else math.nan
 
 
@@ -272,6 +275,77 @@ def deepest_table(folder: Path, config: Path = ONSET_CONFIG) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def tools_evaluations(bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
+    """Every finished evaluation of the filters that calibrate the contact modulus with the cone at the soil's
+    friction on steel (TOOLS_CONFIGS: the filters' own and --probe's, `filter_evaluations`), each parameter set of a
+    soil once, its filter named; a set with a contact parameter of its own besides the modulus (OWN) left out."""
+    parts = [filter_evaluations(Path(bench_dir) / name, config).assign(filter=name)
+             for name, config in TOOLS_CONFIGS.items() if (Path(bench_dir) / name).is_dir()]
+    table = pd.concat([p for p in parts if len(p)], ignore_index=True) if any(len(p) for p in parts) else pd.DataFrame()
+    if table.empty:
+        return table
+    table = table[table[[k for k in OWN if k != "young"]].isna().all(axis=1) & table["young"].notna()]
+    return table.drop_duplicates(subset=["soil", *TOOLS_TERMS]).reset_index(drop=True)
+
+
+def prior_reach(coefs: dict, sds: dict, ranges: dict, bounds: dict, n: int = 200_000, seed: int = 0) -> dict:
+    """Where planes {response: intercept then a slope per TOOLS_TERMS} meet every range {response: (lo, hi)} inside
+    `bounds` {term: (lo, hi)}: the share of the prior (uniform) where every plane lies inside its range, and the set
+    the planes put deepest inside them, its margin in the planes' residual SDs `sds` (`deepest_margin`; negative where
+    they do not all meet) with the planes' responses there. Where a prior has room, not a posterior.
+
+    >>> one = {"c_kpa": np.array([0.0, 0.1, 0, 0, 0, 0, 0, 0])}
+    >>> r = prior_reach(one, {"c_kpa": 1.0}, {"c_kpa": (5.0, 10.0)}, {t: (0.0, 1.0) for t in TOOLS_TERMS}
+    ...                 | {"normal_cohesion": (0.0, 2e5)})
+    >>> round(r["share"], 2), round(r["margin_sd"], 2), round(r["c_kpa"], 2)
+    (0.25, 2.5, 7.5)
+    """
+    rng = np.random.default_rng(seed)
+    box = [tuple(v / SCALE.get(t, 1.0) for v in bounds[t]) for t in TOOLS_TERMS]
+    sample = np.column_stack([rng.uniform(lo, hi, n) for lo, hi in box])
+    inside = np.ones(n, bool)
+    for r, c in coefs.items():
+        inside &= (sample @ c[1:] + c[0] >= ranges[r][0]) & (sample @ c[1:] + c[0] <= ranges[r][1])
+    x, margin = deepest_margin(np.array([c[1:] for c in coefs.values()]), [c[0] for c in coefs.values()],
+                               [sds[r] for r in coefs], [ranges[r] for r in coefs], box)
+    return {"share": float(inside.mean()), "margin_sd": margin,
+            **{t: float(v * SCALE.get(t, 1.0)) for t, v in zip(TOOLS_TERMS, x)},
+            **{r: float(c[0] + c[1:] @ x) for r, c in coefs.items()}}
+
+
+def tools_priors(bench_dir: Path = BENCH_DIR, planes_soil: str = "clay") -> tuple[pd.DataFrame, pd.DataFrame]:
+    """`planes_soil`'s planes in TOOLS_TERMS over the tools and corner filters' evaluations (`tools_evaluations`; the
+    cone as read, r = 8 mm, the collapse slope on the grains), and each soil's reach (`prior_reach`) in each of those
+    filters' priors against its targets (the cone's reading times the config's transfer): the planes as fitted, and
+    for another soil also shifted by its own offsets, the mean residual of its own sets (its beds' density and its
+    friction on steel differ). Returns the planes (a row a response) and the reaches (a row a soil, prior and
+    shift)."""
+    table = tools_evaluations(bench_dir)
+    base = table[table["soil"] == planes_soil]
+    fits = {r: plane(base[base["floor"] == "grains"] if r == "collapse_deg" else base, r, TOOLS_TERMS)
+            for r in RESPONSES}
+    planes_ = pd.DataFrame([{"soil": planes_soil, "response": r, "intercept": c[0], **dict(zip(TOOLS_TERMS, c[1:])),
+                             "r2": r2, "resid_sd": sd, "n": int(base[r].notna().sum())}
+                            for r, (c, r2, sd) in fits.items()])
+    rows = []
+    for soil, own in table.groupby("soil"):
+        X = np.column_stack([own[t] / SCALE.get(t, 1.0) for t in TOOLS_TERMS])
+        offsets = {r: float(np.nanmean(own[r] - (c[0] + X @ c[1:]))) for r, (c, _, _) in fits.items()}
+        for name, config in TOOLS_CONFIGS.items():
+            cfg = load_config(config, soil)
+            transfer = float(cfg["cone_check"].get("transfer", 1.0))
+            ranges = {**target_ranges(soil, cfg), "cone_kpa": cone_range(soil, cfg)}
+            scale = {r: transfer if r == "cone_kpa" else 1.0 for r in RESPONSES}
+            for shift in ("none", "own")[:1 if soil == planes_soil else 2]:
+                coefs = {r: c * scale[r] + np.r_[offsets[r] * scale[r] if shift == "own" else 0.0, np.zeros(len(c) - 1)]
+                         for r, (c, _, _) in fits.items()}
+                rows.append({"soil": soil, "prior": name, "shift": shift, "own_sets": len(own),
+                             **{f"offset_{r}": offsets[r] for r in RESPONSES},
+                             **prior_reach(coefs, {r: sd * scale[r] for r, (_, _, sd) in fits.items()}, ranges,
+                                           cfg["bounds"])})
+    return planes_, pd.DataFrame(rows)
+
+
 def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
     """onset-reach.csv, onset-planes.csv, onset-filter/evaluations.csv and deepest.csv, onset/probes.csv and
     onset/cone-ratio.csv in `bench_dir`, where their inputs exist."""
@@ -292,6 +366,16 @@ def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
                    "the set in the onset prior whose planes over the onset filter's evaluations (and --probe's) lie "
                    "deepest inside every target, margin_sd in the planes' residual SDs: where a probe looks next, "
                    "not a posterior (analysis/soil/onset.py)")
+    if (Path(bench_dir) / "corner-filter").is_dir():
+        planes_, reach_ = tools_priors(bench_dir)
+        paths += [Path(bench_dir) / "corner-filter" / "planes.csv", Path(bench_dir) / "corner-filter" / "priors.csv"]
+        atomic_csv(planes_.round(5), paths[-2], "./holes calibration-report: clay's planes over the tools and corner "
+                   "filters' evaluations (the cone as read at r = 8 mm), a slope per term (the bond per kPa, the "
+                   "modulus per MPa), R², residual SD (analysis/soil/onset.py)")
+        atomic_csv(reach_.round(4), paths[-1], "./holes calibration-report: each soil in the tools and corner "
+                   "filters' priors by clay's planes (shift own: moved by the soil's own sets' mean residual): the "
+                   "share of the prior inside every target, and the set deepest inside, margin_sd in the planes' "
+                   "residual SDs: where a prior has room, not a posterior (analysis/soil/onset.py)")
     if (Path(bench_dir) / "onset").is_dir():
         paths += [Path(bench_dir) / "onset" / "probes.csv", Path(bench_dir) / "onset" / "cone-ratio.csv"]
         table = probes(Path(bench_dir) / "onset")
