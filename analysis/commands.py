@@ -334,7 +334,8 @@ def cmd_cone_damage(args) -> int:
 def cmd_calibration_report(args) -> int:
     from analysis.soil import bench_calibration, calibration_report, cell, onset, soils_apart
     print(calibration_report.run().to_string(index=False))
-    for path in [*bench_calibration.report(), *soils_apart.run(), soils_apart.filter_packing_run(),
+    for path in [*bench_calibration.report(), *bench_calibration.variant_reports(), *soils_apart.run(),
+                 soils_apart.filter_packing_run(),
                  soils_apart.check_odds_run(), soils_apart.shear_scatter_run(), soils_apart.packing_effects_run(),
                  soils_apart.cone_per_c_run(), soils_apart.box_shift_run(), soils_apart.box_shift_pooled_run(),
                  soils_apart.box_peaks_run(),

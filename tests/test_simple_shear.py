@@ -4,6 +4,7 @@ tier) a cohesionless cell reads no cohesion and a friction angle that grows with
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -237,6 +238,29 @@ def test_a_variant_configs_checks_and_posterior_stay_in_its_folder(tmp_path, mon
     head = bench.POSTERIOR_HEAD
     assert text[:text.index(head)].rstrip() == before[:before.index(head)].rstrip()   # the soil config's own tables
 
+
+
+def test_a_variant_filters_pictures_show_its_own_parameters_in_its_folder(tmp_path, monkeypatch):
+    """A variant filter's posterior is drawn with the variant's parameters (the corner config's modulus and stretch
+    among them) into its own folder, without the main filter's response surfaces; a variant with no posterior
+    draws nothing."""
+    import matplotlib.pyplot as plt
+    config = bench.ROOT / "configs/bench_calibration_corner.toml"
+    names = list(bench.load_config(config, "clay")["bounds"])
+    t = pd.DataFrame([{**{k: lo + (hi - lo) * f for k, (lo, hi) in bench.load_config(config, "clay")["bounds"].items()},
+                       "c_kpa": 20 + 5 * f, "phi_deg": 22.0, "collapse_deg": 34.0, "iteration": 1 + (f > 0.4),
+                       "weight_last": 0.5 if f > 0.4 else float("nan")} for f in (0.2, 0.6, 0.8)])
+    t.to_csv(tmp_path / "clay.csv", index=False)
+    (tmp_path / "clay-posterior.json").write_text(json.dumps({"mean": {k: t[k].mean() for k in names},
+                                                              "interval": {k: [t[k].min(), t[k].max()] for k in names}}))
+    monkeypatch.setattr(bench, "surfaces_report", lambda *a, **k: pytest.fail("a variant has no response surfaces"))
+    drawn = []
+    monkeypatch.setattr(plt.Figure, "savefig", lambda self, path, **k: drawn.append((Path(path).name, [
+        ax.get_xlabel() for ax in self.axes])))
+    paths = bench.report(tmp_path, config)
+    assert [p.name for p in paths] == ["posterior.png", "responses.png"] and all(p.parent == tmp_path for p in paths)
+    assert drawn[0][1] == names and "young" in names and "bond_stretch" in names
+    assert bench.report(tmp_path / "none", config) == []
 
 PARAMS = {"normal_cohesion": 9e4, "friction_deg": 6.0, "pressed_adhesion": 0.3, "rolling_friction": 0.2, "damping": 0.15,
           "bond_stretch": 0.4}

@@ -1198,17 +1198,19 @@ def cone_scene(args: list[str], log_path: Path) -> dict:
     return json.loads(out.strip().splitlines()[-1])
 
 
-def report(out_dir: Path = BENCH_DIR) -> list[Path]:
+def report(out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
     """Pictures of every soil calibrated so far: the filter's samples and posterior per parameter
     (posterior.png), and each bench response of the samples and of the posterior's check packings against the
-    target's range (responses.png)."""
+    target's range (responses.png); with the response surfaces (`surfaces_report`) for the filter of
+    configs/bench_calibration.toml. `config`: a variant config, whose filter's folder `out_dir` is (`filter_dir`):
+    its parameters, no surfaces."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     soils = [s for s in ("clay", "loam", "sand") if (Path(out_dir) / f"{s}.csv").exists()]
     if not soils:                     # no filter finished: the planes over the running ones' finished iterations
-        return surfaces_report(out_dir)
-    names = list(load_config()["bounds"])
+        return surfaces_report(out_dir) if config is None else []
+    names = list(dict.fromkeys(k for s in soils for k in load_config(config or CONFIG, s)["bounds"]))
     fig, axes = plt.subplots(len(soils), len(names), figsize=(4 * len(names), 2.6 * len(soils)), squeeze=False)
     for i, soil in enumerate(soils):
         t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
@@ -1261,7 +1263,18 @@ def report(out_dir: Path = BENCH_DIR) -> list[Path]:
     fig.tight_layout()
     fig.savefig(paths[1], dpi=110)
     plt.close(fig)
-    return paths + surfaces_report(out_dir)
+    return paths + (surfaces_report(out_dir) if config is None else [])
+
+
+def variant_reports(out_dir: Path = BENCH_DIR) -> list[Path]:
+    """`report` of each variant config's filter (configs/bench_calibration_*.toml with a [bench] filter_folder) that
+    has drawn a posterior, in its folder."""
+    paths = []
+    for config in sorted((ROOT / "configs").glob("bench_calibration_*.toml")):
+        cfg = load_config(config)
+        if cfg.get("filter_folder"):
+            paths += report(filter_dir(cfg, out_dir), config)
+    return paths
 
 
 POSTERIOR_HEAD = "# GrainLearning's posterior on the bench tests"
