@@ -239,7 +239,6 @@ def test_a_variant_configs_checks_and_posterior_stay_in_its_folder(tmp_path, mon
     assert text[:text.index(head)].rstrip() == before[:before.index(head)].rstrip()   # the soil config's own tables
 
 
-
 def test_a_variant_filters_pictures_show_its_own_parameters_in_its_folder(tmp_path, monkeypatch):
     """A variant filter's posterior is drawn with the variant's parameters (the corner config's modulus and stretch
     among them) into its own folder, without the main filter's response surfaces; a variant with no posterior
@@ -261,6 +260,7 @@ def test_a_variant_filters_pictures_show_its_own_parameters_in_its_folder(tmp_pa
     assert [p.name for p in paths] == ["posterior.png", "responses.png"] and all(p.parent == tmp_path for p in paths)
     assert drawn[0][1] == names and "young" in names and "bond_stretch" in names
     assert bench.report(tmp_path / "none", config) == []
+
 
 PARAMS = {"normal_cohesion": 9e4, "friction_deg": 6.0, "pressed_adhesion": 0.3, "rolling_friction": 0.2, "damping": 0.15,
           "bond_stretch": 0.4}

@@ -281,9 +281,10 @@ def tools_evaluations(bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
     soil once, its filter named; a set with a contact parameter of its own besides the modulus (OWN) left out."""
     parts = [filter_evaluations(Path(bench_dir) / name, config).assign(filter=name)
              for name, config in TOOLS_CONFIGS.items() if (Path(bench_dir) / name).is_dir()]
-    table = pd.concat([p for p in parts if len(p)], ignore_index=True) if any(len(p) for p in parts) else pd.DataFrame()
-    if table.empty:
-        return table
+    parts = [p for p in parts if len(p)]
+    if not parts:
+        return pd.DataFrame()
+    table = pd.concat(parts, ignore_index=True)
     table = table[table[[k for k in OWN if k != "young"]].isna().all(axis=1) & table["young"].notna()]
     return table.drop_duplicates(subset=["soil", *TOOLS_TERMS]).reset_index(drop=True)
 
@@ -337,7 +338,7 @@ def tools_priors(bench_dir: Path = BENCH_DIR, planes_soil: str = "clay") -> tupl
             ranges = {**target_ranges(soil, cfg), "cone_kpa": cone_range(soil, cfg)}
             scale = {r: transfer if r == "cone_kpa" else 1.0 for r in RESPONSES}
             for shift in ("none", "own")[:1 if soil == planes_soil else 2]:
-                coefs = {r: c * scale[r] + np.r_[offsets[r] * scale[r] if shift == "own" else 0.0, np.zeros(len(c) - 1)]
+                coefs = {r: np.r_[c[0] + (offsets[r] if shift == "own" else 0.0), c[1:]] * scale[r]
                          for r, (c, _, _) in fits.items()}
                 rows.append({"soil": soil, "prior": name, "shift": shift, "own_sets": len(own),
                              **{f"offset_{r}": offsets[r] for r in RESPONSES},
