@@ -306,7 +306,8 @@ def prior_reach(coefs: dict, sds: dict, ranges: dict, bounds: dict, n: int = 200
     sample = np.column_stack([rng.uniform(lo, hi, n) for lo, hi in box])
     inside = np.ones(n, bool)
     for r, c in coefs.items():
-        inside &= (sample @ c[1:] + c[0] >= ranges[r][0]) & (sample @ c[1:] + c[0] <= ranges[r][1])
+        plane_values = sample @ c[1:] + c[0]
+        inside &= (plane_values >= ranges[r][0]) & (plane_values <= ranges[r][1])
     x, margin = deepest_margin(np.array([c[1:] for c in coefs.values()]), [c[0] for c in coefs.values()],
                                [sds[r] for r in coefs], [ranges[r] for r in coefs], box)
     return {"share": float(inside.mean()), "margin_sd": margin,
