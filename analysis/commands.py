@@ -183,13 +183,13 @@ def packings_checked(args, cfg: dict, out_dir: Path) -> dict:
 
 def size_checked(args, cfg: dict, out_dir: Path):
     """`calibrate --bench --size-check`: the shear box's or collapse column's (analysis/soil/bench_calibration.py) at
-    the posterior of the filter kept in out_dir, or with `cell` the simple shear cell's (analysis/soil/cell.py) at the
-    base calibration's posterior, on --seeds (default [bench] check_seeds)."""
+    the posterior of the filter kept in out_dir, or with `cell` the simple shear cell's (analysis/soil/cell.py) at
+    that posterior too, on --seeds (default [bench] check_seeds)."""
     from analysis.soil import bench_calibration as bench
     if args.size_check == "cell":
         from analysis.soil import cell
         return cell.size_check(args.soil, cfg, args.seeds or [int(s) for s in cfg["check_seeds"]],
-                               cfg["workers"]).round(2)
+                               cfg["workers"], bench_dir=out_dir).round(2)
     return bench.size_check(args.soil, cfg, out_dir, box=args.size_check, seeds=args.seeds).round(2)
 
 

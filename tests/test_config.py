@@ -163,9 +163,11 @@ def test_a_presets_machine_and_awake_are_checked(tmp_path, extra, pattern):
 def test_a_bench_soils_preset_runs_each_soil_as_its_bench_calibration_left_it(tmp_path):
     """soils = "bench": every calibrated parameter at its posterior mean, the held ones as held, the shear bond equal
     to the normal one, the rest of [soil] kept, the bed settled as [soil] settles it; the soil's run is a new one.
-    A soil without a [bench_posterior] is refused naming the command that makes one."""
+    The posterior is the one kept in the folder the table names. A soil without a [bench_posterior] is refused naming
+    the command that makes one."""
+    import json
     import tomllib
-    from analysis.core.soil_config import bench_soil, load_soil
+    from analysis.core.soil_config import bench_soil, load_soil, posterior_folder
     for soil in ("clay", "loam", "sand"):
         post = tomllib.loads((ROOT / f"configs/soils/{soil}.toml").read_text())["bench_posterior"]
         table, bench = plan(soil, "validation_medium"), plan(soil, "bench_soils_medium")
@@ -176,6 +178,8 @@ def test_a_bench_soils_preset_runs_each_soil_as_its_bench_calibration_left_it(tm
         for name, value in post["fixed"].items():
             assert bench["soil"][name] == value, (soil, name)
         assert bench["soil"]["shear_cohesion"] == bench["soil"]["normal_cohesion"]
+        drawn = json.loads((posterior_folder(soil) / f"{soil}-posterior.json").read_text())["mean"]
+        assert {n: float(f"{drawn[n]:.4g}") for n in calibrated} == {n: post[n]["mean"] for n in calibrated}, soil
         assert bench["soil"]["young"] == table["soil"]["young"] and bench["id"] != table["id"]
         # the bed settles as the bench tests' beds did (as [soil] says): the same bed as the table soil's runs
         assert bench["bed_settled_as"] == {k: table["soil"][k] for k in bench["bed_settled_as"]}

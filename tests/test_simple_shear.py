@@ -61,14 +61,20 @@ def fake_scenes(ran: dict, c: float, phi: float):
 
 
 def test_the_size_check_runs_each_cell_once_and_reads_only_the_posteriors_runs(tmp_path, monkeypatch):
-    """Each edge and packing runs once with the posterior's overrides (a finished one is not run again); another
-    set's run in the folder is not read; the grown cell's shift under the packings' SD passes and the verdict is
-    read in the smaller cell."""
+    """Each edge and packing runs once with the posterior's overrides and the values its calibration held (a finished
+    one is not run again, nor one the filter's check ran at the posterior in its evaluation's folder); another set's
+    run in the folder is not read; the grown cell's shift under the packings' SD passes and the verdict is read in
+    the smaller cell."""
     bench_dir = tmp_path / "bench"
     bench_dir.mkdir()
     post = {"normal_cohesion": 9e4, "friction_deg": 9.0, "pressed_adhesion": 0.1, "rolling_friction": 0.3,
             "damping": 0.1}
-    (bench_dir / "clay-posterior.json").write_text(json.dumps({"mean": post}))
+    (bench_dir / "clay-posterior.json").write_text(json.dumps({"mean": post, "fixed": {"adhesion_onset": 4e4}}))
+    checked = bench_dir / "clay" / "s1-check"
+    checked.mkdir(parents=True)
+    (checked / "responses.json").write_text(json.dumps({"c_kpa": 23.0}))
+    (checked / "cell.json").write_text(json.dumps(fake_cell("clay", 120, 1, 23.0, 26.1,
+                                                            cell.posterior_overrides("clay", bench_dir))))
     monkeypatch.setattr(cell, "box_beside", lambda soil, cells, bench_dir: [])
     monkeypatch.setattr(cell, "plot", lambda read, beside, path: path)
     ran = []
@@ -91,9 +97,9 @@ def test_the_size_check_runs_each_cell_once_and_reads_only_the_posteriors_runs(t
     other.mkdir(parents=True)
     (other / "x.json").write_text(json.dumps(fake_cell("clay", 120, 9, 2.0, 20.0, {"friction_deg": 30.0})))
     table = cell.size_check("clay", cfg, [1, 2, 3], 2, bench_dir, tmp_path / "cells")
-    assert sorted(ran) == [(120, 1), (120, 2), (120, 3), (180, 1), (180, 2), (180, 3)]
+    assert sorted(ran) == [(120, 2), (120, 3), (180, 1), (180, 2), (180, 3)]     # (120, 1): the filter's check's
     cell.size_check("clay", cfg, [1, 2, 3], 2, bench_dir, tmp_path / "cells")
-    assert len(ran) == 6                                           # every cell kept: none runs again
+    assert len(ran) == 5                                           # every cell kept: none runs again
     sized = table[table["sized"]].set_index("response")
     assert sized.loc["c_kpa", "edge_mm"] == 120 and sized.loc["c_kpa", "packings"] == 3
     assert sized.loc["c_kpa", "verdict"] == "inside" and sized.loc["c_kpa", "mean"] == pytest.approx(22 + 2 / 3, abs=1e-3)
@@ -235,6 +241,9 @@ def test_a_variant_configs_checks_and_posterior_stay_in_its_folder(tmp_path, mon
     assert written == tmp_path / "clay.toml" and soils.read_text() == before
     text = written.read_text()
     assert text.count("[bench_posterior]") == 1 and "adhesion_onset = 40000" in text
+    from analysis.core.soil_config import posterior_folder
+    (tmp_path / "clay-posterior.json").write_text(json.dumps(post))
+    assert posterior_folder("clay", written) == tmp_path                # copied over the runs' config, it names its folder
     head = bench.POSTERIOR_HEAD
     assert text[:text.index(head)].rstrip() == before[:before.index(head)].rstrip()   # the soil config's own tables
 

@@ -1176,32 +1176,38 @@ def checked_rows(root: Path, soil: str, name: str, box_mm, cs, phis=None, **para
 
 
 def test_soils_apart_reads_a_response_as_telling_two_soils_apart_only_when_its_interval_leaves_zero_out(tmp_path):
-    """Made-up checks over every packing of the checks' box: c differs by 12 kPa over a 1 kPa scatter (apart), φ by
-    0.3° over 1° (not), the collapse heaps alike; in the grown box, two packings each, c alike (not apart); the cone
-    over the check's packings; the parameter intervals are disjoint for the bond only; the soils' own targets decide
-    `targets_apart`."""
+    """Made-up checks over every packing of the checks' box, each soil's in its own folder: c differs by 12 kPa over a
+    1 kPa scatter (apart), φ by 0.3° over 1° (not), the collapse heaps alike; in the grown box, two packings each, c
+    alike (not apart); the cone over the check's packings; the parameter intervals are disjoint for the bond only;
+    the soils' own targets decide `targets_apart`."""
     from analysis.soil import soils_apart
     rng = np.random.default_rng(5)
     cfg = bench.load_config()
+    folders = {"clay": tmp_path, "loam": tmp_path / "variant"}
     for soil, c, phi, bond, cone in (("clay", 25, 28, 90e3, 450e3), ("loam", 13, 28.3, 150e3, 460e3)):
+        folder = folders[soil]
+        folder.mkdir(exist_ok=True)
         post = {**CHECKED_SET, "normal_cohesion": bond}
         interval = {n: [v * 0.9, v * 1.1] for n, v in post.items()} | {"normal_cohesion": [bond - 10e3, bond + 10e3]}
-        (tmp_path / f"{soil}-posterior.json").write_text(json.dumps({"mean": post, "interval": interval}))
-        checks = checked_rows(tmp_path, soil, "k", cfg["check_box_mm"], c + rng.normal(0, 1, 5),
+        (folder / f"{soil}-posterior.json").write_text(json.dumps({"mean": post, "interval": interval}))
+        checks = checked_rows(folder, soil, "k", cfg["check_box_mm"], c + rng.normal(0, 1, 5),
                               list(phi + rng.normal(0, 1, 5)), normal_cohesion=bond)
-        checks.to_csv(tmp_path / f"{soil}-check-packings.csv", index=False)
-        checks[:3].assign(cone_kpa=cone / 1e3 + rng.normal(0, 5, 3)).to_csv(tmp_path / f"{soil}-check.csv", index=False)
-        grown = checked_rows(tmp_path, soil, "g", cfg["check_size_check_mm"], [20.0, 22.0], normal_cohesion=bond)
-        grown.assign(box="grown").to_csv(tmp_path / f"{soil}-box-size.csv", index=False)
-    paths = soils_apart.run(tmp_path)
+        checks.to_csv(folder / f"{soil}-check-packings.csv", index=False)
+        checks[:3].assign(cone_kpa=cone / 1e3 + rng.normal(0, 5, 3)).to_csv(folder / f"{soil}-check.csv", index=False)
+        grown = checked_rows(folder, soil, "g", cfg["check_size_check_mm"], [20.0, 22.0], normal_cohesion=bond)
+        grown.assign(box="grown").to_csv(folder / f"{soil}-box-size.csv", index=False)
+    paths = soils_apart.run(tmp_path, folders)
     table = pd.read_csv(paths[0], comment="#")
-    checked, grown = (table[table.read_in == "x".join(f"{v:g}" for v in cfg[k])].set_index("response")
-                      for k in ("check_box_mm", "check_size_check_mm"))
+    checked, grown, column = (table[table.read_in == w].set_index("response") for w in
+                              (*("x".join(f"{v:g}" for v in cfg[k]) for k in ("check_box_mm", "check_size_check_mm")),
+                               "column"))
     assert checked.loc["c_kpa", "apart"] and not checked.loc["phi_deg", "apart"]
-    assert checked.loc["c_kpa", "packings"] == "5+5" and not checked.loc["collapse_deg", "apart"]
+    assert checked.loc["c_kpa", "packings"] == "5+5" and set(checked.index) == {"c_kpa", "phi_deg"}
+    assert list(column.index) == ["collapse_deg"] and column.loc["collapse_deg", "packings"] == "5+5"
+    assert not column.loc["collapse_deg", "apart"]
     assert tuple(checked.loc["c_kpa", ["soil_1", "soil_2"]]) == ("clay", "loam")
     assert checked.loc["c_kpa", "difference"] < -9                                    # loam's c is the lower
-    assert set(grown.index) == {"c_kpa", "phi_deg"} and not grown.loc["c_kpa", "apart"]   # collapse: the checks' only
+    assert set(grown.index) == {"c_kpa", "phi_deg"} and not grown.loc["c_kpa", "apart"]
     cone = table[table.read_in == "cone"].set_index("response")
     assert list(cone.index) == ["cone_kpa"] and cone.loc["cone_kpa", "packings"] == "3+3"
     targets = {s: bench.load_targets(s) for s in ("clay", "loam")}
@@ -1209,8 +1215,9 @@ def test_soils_apart_reads_a_response_as_telling_two_soils_apart_only_when_its_i
     assert checked.loc["c_kpa", "targets_apart"] == c_disjoint
     params = pd.read_csv(paths[1], comment="#").set_index("parameter")
     assert params.loc["normal_cohesion", "apart"] and not params.loc["friction_deg", "apart"]
-    (tmp_path / "loam-check.csv").unlink()
-    assert soils_apart.run(tmp_path) == []                     # one soil checked: nothing to set apart
+    assert set(params["calibrated"]) == {"both"}
+    (folders["loam"] / "loam-check.csv").unlink()
+    assert soils_apart.run(tmp_path, folders) == []            # one soil checked: nothing to set apart
 
 
 def test_filter_packing_reads_an_offset_of_the_filters_packing_only_where_the_checks_resolve_it(tmp_path, monkeypatch):

@@ -161,6 +161,22 @@ def bench_soil(soil: Soil, path=None) -> Soil:
 BENCH_DIR = ROOT / "results/calibration/bench"    # the bench calibration's tables (`./holes calibrate --bench`)
 
 
+def posterior_folder(soil: str, path=None) -> Path:
+    """Where the posterior the soil's config carries was drawn and checked: its `[bench_posterior]` folder (relative
+    to the project), which holds <soil>-posterior.json, the filter's samples and the checks' tables; a config
+    without one is a ConfigError.
+
+    >>> posterior_folder("sand").relative_to(ROOT).as_posix()
+    'results/calibration/bench'
+    """
+    path = Path(path or ROOT / "configs/soils" / f"{soil}.toml")
+    folder = read_toml(path).get("bench_posterior", {}).get("folder")
+    if not isinstance(folder, str) or not (ROOT / folder / f"{soil}-posterior.json").is_file():
+        raise ConfigError(f"{path}: bench_posterior.folder = {folder!r}: allowed the folder, relative to the project, "
+                          f"that holds {soil}-posterior.json (`./holes calibrate --soil {soil} --bench` writes it)")
+    return ROOT / folder
+
+
 def heaviest(samples: list[dict], share: float, most: int) -> list[dict]:
     """The samples by descending `weight` until together they hold `share` of the total, at most `most`; each with
     its weight renormalised over those taken.
@@ -181,13 +197,14 @@ def heaviest(samples: list[dict], share: float, most: int) -> list[dict]:
 
 def posterior_samples(soil: str, share: float, most: int, bench_dir=None) -> list[dict]:
     """The soil's bench posterior as a few parameter sets: the filter's last iteration's samples
-    (<bench_dir>/<soil>.csv, `weight_last`) by `heaviest`, each the calibrated parameters (the shear bond equal to
+    (<bench_dir>/<soil>.csv, `weight_last`; by default the folder of the posterior the soil's config carries,
+    `posterior_folder`) by `heaviest`, each the calibrated parameters (the shear bond equal to
     the normal one, as the bench ran them), the values the calibration held fixed and its `weight`. A soil whose
     filter has not finished is a ConfigError."""
     import json
 
     import pandas as pd
-    bench_dir = Path(bench_dir or BENCH_DIR)
+    bench_dir = Path(bench_dir or posterior_folder(soil))
     table, post = bench_dir / f"{soil}.csv", bench_dir / f"{soil}-posterior.json"
     if not (table.exists() and post.exists()):
         raise ConfigError(f"{soil}: no finished bench calibration ({table.name}, {post.name} in {bench_dir}): "

@@ -1310,14 +1310,15 @@ def packings_line(result: dict, seeds: list[int], key: str = "check_packings", b
 
 def posterior_block(soil: str, post: dict, check_result: dict, command: str, packings: str | None = None,
                     folder: Path = BENCH_DIR) -> str:
-    """The `[bench_posterior]` table a soil's config carries: the parameters held fixed, each calibrated parameter's
-    posterior mean and 95 % interval,
+    """The `[bench_posterior]` table a soil's config carries: the folder its posterior and checks are kept in
+    (`posterior_folder`), the parameters held fixed, each calibrated parameter's posterior mean and 95 % interval,
     their correlations, the bench responses of the mean over the check packings, and whether every packing's
     response lies inside every target's range (status); `packings`, its check on more packings (`packings_line`)."""
     status = check_status(check_result)
     source = shown(Path(folder).resolve() / f"{soil}-posterior.json")
     lines = [POSTERIOR_HEAD + f" (`{command}`), {source}; the runs of the",
-             "# holes use [soil] above until it is adopted.", "[bench_posterior]", f'status = "{status}"']
+             "# holes use [soil] above until it is adopted.", "[bench_posterior]",
+             f'folder = "{shown(Path(folder).resolve())}"', f'status = "{status}"']
     if packings:
         lines.append(packings)
     if post.get("fixed"):                     # held, not calibrated: the posterior holds with these only

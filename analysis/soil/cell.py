@@ -40,9 +40,10 @@ GROWTH = 1.5              # the size check grows the cell's edge by half
 
 def size_check(soil: str, cfg: dict, seeds: list[int], workers: int, bench_dir: Path = BENCH_DIR,
                folder: Path = CELL_DIR) -> pd.DataFrame:
-    """The soil's posterior mean sheared in every cell of [bench] cell_edges_mm on the packings `seeds`, `workers`
-    scenes at a time, each kept in <folder>/<soil>/set-<its overrides' hash>/ (a finished one is not run again);
-    then the tables (`run`). Returns the soil's rows of cell.csv."""
+    """The soil's posterior mean (<bench_dir>/<soil>-posterior.json) sheared in every cell of [bench] cell_edges_mm
+    on the packings `seeds`, `workers` scenes at a time, each kept in <folder>/<soil>/set-<its overrides' hash>/ (a
+    cell `cell_packings` already reads, finished there or among the filter's checks, is not run again); then the
+    tables (`run`). Returns the soil's rows of cell.csv."""
     test = posterior_overrides(soil, bench_dir)
     out = Path(folder) / soil / f"set-{digest(test, 8)}"
     out.mkdir(parents=True, exist_ok=True)
@@ -52,8 +53,6 @@ def size_check(soil: str, cfg: dict, seeds: list[int], workers: int, bench_dir: 
     def one(job):
         edge, seed = job
         key = cell_key(soil_cfg, res, edge / 1000, seed)
-        if (out / f"{key}-{stresses.replace(',', '_')}.json").exists():
-            return
         cmd = [sys.executable, str(ROOT / "scripts/simple_shear.py"), "--soil", soil, "--resolution", cfg["resolution"],
                "--size", f"{edge:g}", "--seed", str(seed), "--stress", stresses, "--out", str(out),
                *[a for k, v in test.items() for a in ("--test-set", f"{k}={v}")]]
@@ -61,7 +60,10 @@ def size_check(soil: str, cfg: dict, seeds: list[int], workers: int, bench_dir: 
         if code != 0:
             raise RuntimeError(f"scripts/simple_shear.py exited {code} ({out / f'{key}.log'})")
 
-    jobs = [(float(e), s) for e in cfg["cell_edges_mm"] for s in seeds]
+    held = cell_packings(soil, folder, bench_dir)     # run here before, or by the filter's checks: not run again
+    held = set() if held.empty else set(zip(held["edge_mm"][held["inertial"] == CELL_INERTIAL],
+                                            held["seed"][held["inertial"] == CELL_INERTIAL]))
+    jobs = [(float(e), s) for e in cfg["cell_edges_mm"] for s in seeds if (round(float(e)), s) not in held]
     in_parallel(one, jobs, workers, f"cell {soil}", "cells")
     run(folder, bench_dir)
     table = pd.read_csv(Path(bench_dir) / "cell.csv")
@@ -85,20 +87,24 @@ def cell_fit(result: dict) -> dict:
 
 
 def cell_packings(soil: str, folder: Path = CELL_DIR, bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
-    """Every finished cell run of the soil's posterior mean (its test overrides those of `overrides`), one row per
-    cell edge, shear rate and packing: `cell_fit` with the peaks per normal stress (kPa columns)."""
-    path = Path(folder) / soil
-    if not path.is_dir() or not (Path(bench_dir) / f"{soil}-posterior.json").exists():
+    """Every finished cell run of the soil's posterior mean (<bench_dir>/<soil>-posterior.json; its test overrides
+    those of `posterior_overrides`), one row per cell edge, shear rate and packing: `cell_fit` with the peaks per
+    normal stress (kPa columns). Read in <folder>/<soil>/ (the size check's and the probes' cells) and in the
+    evaluations of a filter that shears in the cell (<bench_dir>/<soil>/<id>/: its checks at the posterior); a cell
+    both hold is read once."""
+    if not (Path(bench_dir) / f"{soil}-posterior.json").exists():
         return pd.DataFrame()
     want = posterior_overrides(soil, bench_dir)
-    rows = []
-    for f in sorted(path.rglob("*.json")):
-        if f.name.endswith(".part.json"):
-            continue
-        result = json.loads(f.read_text())
-        if result.get("overrides") == want:
-            rows.append(cell_fit(result))
-    return pd.DataFrame(rows).sort_values(["edge_mm", "inertial", "seed"]) if rows else pd.DataFrame()
+    rows = {}
+    for path in (Path(folder) / soil, Path(bench_dir) / soil):
+        for f in sorted(path.rglob("*.json")) if path.is_dir() else []:
+            if f.name.endswith(".part.json") or f.name == "responses.json":
+                continue
+            result = json.loads(f.read_text())
+            if result.get("overrides") == want and "inertial" in result:
+                row = cell_fit(result)
+                rows.setdefault((row["edge_mm"], row["inertial"], row["seed"]), row)
+    return pd.DataFrame(list(rows.values())).sort_values(["edge_mm", "inertial", "seed"]) if rows else pd.DataFrame()
 
 
 def rate_table(cells: pd.DataFrame) -> pd.DataFrame:
@@ -119,9 +125,10 @@ def rate_table(cells: pd.DataFrame) -> pd.DataFrame:
 
 
 def posterior_overrides(soil: str, bench_dir: Path = BENCH_DIR) -> dict:
-    """The scene's --test-set of the soil's posterior mean with the calibration's fixed parameters, as the scene
-    records them (the bench calibration's `overrides`, as numbers)."""
-    fixed = load_config(soil=soil).get("fixed") or {}
+    """The scene's --test-set of the soil's posterior mean with the parameters its calibration held fixed (both from
+    <bench_dir>/<soil>-posterior.json), as the scene records them (the bench calibration's `overrides`, as
+    numbers)."""
+    fixed = json.loads((Path(bench_dir) / f"{soil}-posterior.json").read_text()).get("fixed") or {}
     return dict(sorted(equal_bonds({**fixed, **rounded(posterior_mean(soil, bench_dir))}).items()))
 
 

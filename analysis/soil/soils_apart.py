@@ -1,11 +1,13 @@
-"""Which bench test tells which soil apart: for each pair of calibrated soils, each bench response of their
-posterior means side by side with the interval of the difference (the shear box and the collapse test over every
-packing each box ran, `posterior_packings`; the cone over the check's packings, `<soil>-check.csv`), and each
-calibrated parameter's posterior interval (`<soil>-posterior.json`). A response tells two soils apart when the
+"""Which bench test tells which soil apart: for each pair of the soils the runs use, each bench response of their
+posterior means side by side with the interval of the difference (the shear box over every packing each box ran,
+`posterior_packings`; the wall-free cell over every packing each edge ran; the collapse column and the cone over the
+checks' packings, `<soil>-check.csv`), and each parameter's posterior interval (`<soil>-posterior.json`; a parameter
+one soil held, at its value). A response tells two soils apart when the
 interval of the difference of their packings' means leaves zero out; whether the targets ask it to is whether the two
 soils' target ranges are disjoint. Beside them, how the filter's own packing reads against the
 other check packings over every posterior checked so far (`filter-packing.csv`), and how far the check packings'
 scatter lets a check on each packing tell a set inside a target at all (`check-odds.csv`)."""
+import dataclasses
 import itertools
 import json
 from pathlib import Path
@@ -14,10 +16,12 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from analysis.core.io import atomic_csv
+from analysis.core.io import atomic_csv, shown
+from analysis.core.schema import ConfigError
 from analysis.core.soil_config import SOILS
-from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, cone_path, cone_range, difference_interval,
-                                             filter_seeds, load_config, mean_verdict, measured, mm, posterior_packings,
+from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, at_posterior, cone_path, cone_range,
+                                             difference_interval, filter_seeds, load_config, mean_verdict, measured,
+                                             mm, posterior_mean, posterior_packings,
                                              pooled_shift, runs_cone, scene_result, shear_box_mm, SHEAR_RESPONSES,
                                              size_shift, target_ranges)
 from analysis.soil.shear import READING
@@ -44,56 +48,105 @@ def responses_apart(checks: dict[str, pd.DataFrame], targets: dict[str, dict],
     return pd.DataFrame(rows)
 
 
-def parameters_apart(posteriors: dict[str, dict]) -> pd.DataFrame:
-    """Per calibrated parameter and pair of soils: both posterior means and 95 % intervals, and whether the
-    intervals are disjoint (`apart`); a parameter one of the two did not calibrate is left out of their pair."""
+def parameters_apart(posteriors: dict[str, dict], held: dict[str, dict] | None = None) -> pd.DataFrame:
+    """Per parameter either soil of a pair calibrated and pair of soils: both posterior means and 95 % intervals, and
+    whether the intervals are disjoint (`apart`). A soil that held the parameter enters with its value `held[soil]`
+    as a point (`calibrated` names who calibrated it); a parameter neither has a value for is left out of the pair.
+
+    >>> post = lambda m, lo, hi: {"mean": {"young": m}, "interval": {"young": [lo, hi]}}
+    >>> t = parameters_apart({"clay": post(5.6e6, 4.7e6, 6.8e6), "sand": {"mean": {}, "interval": {}}},
+    ...                      {"sand": {"young": 2e7}})
+    >>> t[["parameter", "lo_2", "hi_2", "calibrated", "apart"]].values.tolist()
+    [['young', 20000000.0, 20000000.0, 'clay', True]]
+    """
+    held = held or {}
     rows = []
     for s1, s2 in itertools.combinations(posteriors, 2):
         p1, p2 = posteriors[s1], posteriors[s2]
-        for n in [n for n in p1["mean"] if n in p2["mean"]]:
-            (lo1, hi1), (lo2, hi2) = p1["interval"][n], p2["interval"][n]
-            rows.append({"parameter": n, "soil_1": s1, "soil_2": s2, "mean_1": p1["mean"][n], "lo_1": lo1, "hi_1": hi1,
-                         "mean_2": p2["mean"][n], "lo_2": lo2, "hi_2": hi2, "apart": bool(hi1 < lo2 or hi2 < lo1)})
+        for n in dict.fromkeys([*p1["mean"], *p2["mean"]]):
+            ends = []
+            for s, p in ((s1, p1), (s2, p2)):
+                value = p["mean"].get(n, held.get(s, {}).get(n))
+                ends.append((value, *(p["interval"][n] if n in p["mean"] else (value, value))))
+            if any(e[0] is None for e in ends):
+                continue
+            (m1, lo1, hi1), (m2, lo2, hi2) = ends
+            rows.append({"parameter": n, "soil_1": s1, "soil_2": s2, "mean_1": m1, "lo_1": lo1, "hi_1": hi1,
+                         "mean_2": m2, "lo_2": lo2, "hi_2": hi2,
+                         "calibrated": "both" if n in p1["mean"] and n in p2["mean"] else (s1 if n in p1["mean"] else s2),
+                         "apart": bool(hi1 < lo2 or hi2 < lo1)})
     return pd.DataFrame(rows)
 
 
-def run(out_dir: Path = BENCH_DIR) -> list[Path]:
-    """soils-apart.csv (the responses) and soils-apart-parameters.csv from every soil with a posterior and its check
-    in out_dir; nothing when fewer than two soils have both. The responses are read where each is judged: the shear
-    box's and the collapse test's over every packing the checks' box ran, the shear box's again over every packing
-    of the checks' box grown by half, the wall-free cell's c and φ over every packing each cell edge ran
-    (analysis/soil/cell.py), and the cone over the check's packings (`read_in`)."""
+def column_packings(soil: str, folder: Path) -> pd.DataFrame:
+    """The collapse slope of the soil's posterior mean (<folder>/<soil>-posterior.json), one row per packing its
+    checks ran (<folder>/<soil>-check.csv and -check-packings.csv, the rows at the posterior mean; a packing both
+    hold is read once), measured from the evaluation's folder where it holds the shear box and the column
+    (`measured`), else as the check recorded it."""
+    post = posterior_mean(soil, folder)
+    rows = {}
+    for part in ("-check", "-check-packings"):
+        path = Path(folder) / f"{soil}{part}.csv"
+        if path.exists():
+            table = at_posterior(pd.read_csv(path, comment="#", float_precision="round_trip"), post)
+            for row in table.to_dict(orient="records"):
+                if int(row["seed"]) not in rows and not isinstance(row.get("failed"), str):
+                    row = measured(row, Path(folder) / soil / str(row["id"]), kept_only=True)
+                    rows[int(row["seed"])] = {"seed": int(row["seed"]), "collapse_deg": row.get("collapse_deg")}
+    return pd.DataFrame([rows[s] for s in sorted(rows)])
+
+
+def run(out_dir: Path = BENCH_DIR, folders: dict[str, Path] | None = None) -> list[Path]:
+    """soils-apart.csv (the responses) and soils-apart-parameters.csv in out_dir, for the soils the runs use: each
+    soil's posterior and checks read in `folders[soil]` (by default the folder its config's [bench_posterior] names,
+    `posterior_folder`); nothing when fewer than two soils have a posterior and its check there. Each response is
+    read where it is judged: the shear box's c and φ over every packing the checks' box ran, and again over every
+    packing of the checks' box grown by half; the wall-free cell's c and φ over every packing each cell edge ran
+    (analysis/soil/cell.py: the size check's cells and a cell filter's checks); the collapse slope over every packing
+    the checks ran (`column_packings`); the cone over the check's packings. A parameter one soil held and the other
+    calibrated enters at the held value (the runs' soil config, `bench_soil`)."""
+    from analysis.core.soil_config import bench_soil, load_soil, posterior_folder
     out_dir = Path(out_dir)
-    soils = [s for s in SOILS if (out_dir / f"{s}-check.csv").exists() and (out_dir / f"{s}-posterior.json").exists()]
+    folders = {s: Path(f) for s, f in (folders or {s: posterior_folder(s) for s in SOILS}).items()}
+    soils = [s for s in SOILS if s in folders and (folders[s] / f"{s}-check.csv").exists()
+             and (folders[s] / f"{s}-posterior.json").exists()]
     if len(soils) < 2:
         return []
     cfg = load_config()
-    posteriors = {s: json.loads((out_dir / f"{s}-posterior.json").read_text()) for s in soils}
+    posteriors = {s: json.loads((folders[s] / f"{s}-posterior.json").read_text()) for s in soils}
     targets = {s: target_ranges(s, load_config(soil=s)) for s in soils}
     tables = []
-    for key, responses in (("check_box_mm", RESPONSES), ("check_size_check_mm", SHEAR_RESPONSES)):
+    for key in ("check_box_mm", "check_size_check_mm"):
         box = cfg[key]
-        checks = {s: posterior_packings(s, box, out_dir, out_dir) for s in soils}
-        tables.append(responses_apart(checks, targets, responses).assign(read_in=mm(box)))
+        checks = {s: posterior_packings(s, box, folders[s], folders[s]) for s in soils}
+        tables.append(responses_apart(checks, targets, SHEAR_RESPONSES).assign(read_in=mm(box)))
     from analysis.core.bed_spec import CELL_INERTIAL
     from analysis.soil.cell import cell_packings
-    cells = {s: cell_packings(s, bench_dir=out_dir) for s in soils}
+    cells = {s: cell_packings(s, bench_dir=folders[s]) for s in soils}
     cells = {s: t[t["inertial"] == CELL_INERTIAL] for s, t in cells.items() if len(t)}
     for edge in sorted({e for t in cells.values() for e in t["edge_mm"]}):     # the wall-free cell, each edge
         at = {s: t[t["edge_mm"] == edge] for s, t in cells.items()}
         tables.append(responses_apart(at, targets, SHEAR_RESPONSES).assign(read_in=f"cell {edge:g}"))
-    cones = {s: pd.read_csv(out_dir / f"{s}-check.csv", comment="#") for s in soils}
+    columns = {s: column_packings(s, folders[s]) for s in soils}
+    tables.append(responses_apart(columns, targets, ("collapse_deg",)).assign(read_in="column"))
+    cones = {s: pd.read_csv(folders[s] / f"{s}-check.csv", comment="#") for s in soils}
     tables.append(responses_apart(cones, targets, ("cone_kpa",)).assign(read_in="cone"))
+    held = {}
+    for s in soils:
+        try:
+            held[s] = dataclasses.asdict(bench_soil(load_soil(s)))
+        except ConfigError:                 # a soil config without a [bench_posterior]: its calibrated ones only
+            held[s] = {}
     paths = [out_dir / "soils-apart.csv", out_dir / "soils-apart-parameters.csv"]
     atomic_csv(pd.concat(tables).round(3), paths[0],
                "./holes calibration-report; per bench response, where it is read (read_in: the shear box, mm, over "
-               "every packing it ran at the posterior mean, the collapse test with the checks' box; the wall-free "
-               "cell of that edge, mm, over every packing it ran; the cone over the "
-               "check's packings) and pair of soils, the difference of the packings' means, soil_2 − soil_1 (Welch 95 % "
-               "interval), and whether the targets' ranges are disjoint")
-    atomic_csv(parameters_apart(posteriors).round(4), paths[1],
-               "./holes calibration-report; per calibrated parameter and pair of soils, the posteriors' 95 % "
-               "intervals and whether they are disjoint")
+               "every packing it ran at the posterior mean; the wall-free cell of that edge, mm, over every packing it "
+               "ran; the collapse column and the cone over the checks' packings) and pair of soils, the runs' "
+               "posteriors (" + ", ".join(f"{s}: {shown(folders[s])}" for s in soils) + "): the difference of the "
+               "packings' means, soil_2 − soil_1 (Welch 95 % interval), and whether the targets' ranges are disjoint")
+    atomic_csv(parameters_apart(posteriors, held).round(4), paths[1],
+               "./holes calibration-report; per parameter and pair of soils, the runs' posteriors' 95 % intervals (a "
+               "parameter a soil held: its value, both ends) and whether they are disjoint")
     return paths
 
 
