@@ -406,7 +406,7 @@ def test_a_posterior_section_runs_the_heaviest_samples_with_their_weights(tmp_pa
     from analysis.core import soil_config
     from analysis.holes.budget_report import posterior_parts
     made_up_posterior(tmp_path / "bench")
-    monkeypatch.setattr(soil_config, "BENCH_DIR", tmp_path / "bench")
+    monkeypatch.setattr(soil_config, "posterior_folder", lambda soil: tmp_path / "bench")
     path = tmp_path / "post.toml"
     path.write_text(POSTERIOR)
     head, cases = load_study(path)
