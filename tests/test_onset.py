@@ -159,7 +159,8 @@ def test_the_deepest_set_lies_as_many_residual_sds_inside_every_range_as_the_pla
 
 def test_the_tools_planes_recover_made_up_slopes_and_another_soils_offsets(monkeypatch):
     """Clay's planes in the seven terms (the modulus per MPa) come back from made-up responses; loam's sets, the same
-    responses shifted, give back the shift, and loam's shifted reach reads the planes plus the shift at its set."""
+    responses shifted, give back the shift, and loam's shifted reach reads the planes plus the shift at its set; loam's
+    own planes (fitted to its sets alone) give back the shifted intercepts."""
     rng = np.random.default_rng(1)
     spans = [(5e4, 1.5e5), (6, 14), (0.1, 1.0), (0.05, 0.5), (0.1, 0.25), (0.0, 1.0), (4e6, 2e7)]
     slopes = {"c_kpa": [15, 0.02, -1, 0, -7, 2, 10, -0.15], "phi_deg": [8, 0.05, 0.7, 0.8, 3.6, -3, 2.7, 0.37],
@@ -188,3 +189,9 @@ def test_the_tools_planes_recover_made_up_slopes_and_another_soils_offsets(monke
         c = got.loc[r, ["intercept", *onset.TOOLS_TERMS]].to_numpy(float)
         assert own[r] == pytest.approx(c[0] + c[1:] @ x + own[f"offset_{r}"], rel=1e-6)
     assert 0 <= own["share"] <= 1 and np.isfinite(loam["margin_sd"]).all()
+    monkeypatch.setattr(onset, "tools_evaluations", lambda bench_dir=None: pd.concat([sets("clay", 30), sets("loam", 30)]))
+    planes, reach = onset.tools_priors(planes_soil="loam")      # loam's own planes: the slopes, its shifted intercepts
+    got = planes.set_index("response")
+    assert set(planes["soil"]) == {"loam"} and set(reach[reach["soil"] == "loam"]["shift"]) == {"none"}
+    for r, c in slopes.items():
+        assert got.loc[r, "intercept"] == pytest.approx(c[0] + shift[r], abs=0.05 * max(map(abs, c)))

@@ -43,7 +43,8 @@ OWN = ("shear_cohesion", "adhesion_share", "tool_friction_deg", "young")   # a p
 SCALE = {"normal_cohesion": 1e3, "young": 1e6}     # the bond in kPa and the modulus in MPa in the planes
 TOOLS_TERMS = (*TERMS, "young")                    # the planes of the filters that calibrate the contact modulus too
 TOOLS_CONFIGS = {"tools-filter": ROOT / "configs/bench_calibration_tools.toml",   # the filters with the cone at the
-                 "corner-filter": ROOT / "configs/bench_calibration_corner.toml"}  # soil's friction on steel
+                 "corner-filter": ROOT / "configs/bench_calibration_corner.toml",  # soil's friction on steel
+                 "own-filter": ROOT / "configs/bench_calibration_own.toml"}
 # a test's scene options kept in its row, each with its type: a cone's grains, size and speed
 OPTIONS = {"--resolution": ("resolution", str), "--cone-scale": ("cone_scale", float),
            "--cone-speed": ("cone_speed", float)}
@@ -348,9 +349,28 @@ def tools_priors(bench_dir: Path = BENCH_DIR, planes_soil: str = "clay") -> tupl
     return planes_, pd.DataFrame(rows)
 
 
+PLANES_FOLDERS = {"clay": "corner-filter", "loam": "own-filter"}   # each soil whose planes placed a prior: its filter
+
+
+def tools_priors_run(soil: str, folder: Path, bench_dir: Path = BENCH_DIR) -> list[Path]:
+    """planes.csv and priors.csv in `folder`: `soil`'s planes over the tools filters' evaluations and each soil's
+    reach by them in each of those filters' priors (`tools_priors`)."""
+    planes_, reach_ = tools_priors(bench_dir, planes_soil=soil)
+    paths = [Path(folder) / "planes.csv", Path(folder) / "priors.csv"]
+    atomic_csv(planes_.round(5), paths[0], f"./holes calibration-report: {soil}'s planes over the tools filters' "
+               "evaluations (the cone as read at r = 8 mm), a slope per term (the bond per kPa, the modulus per MPa), "
+               "R², residual SD (analysis/soil/onset.py)")
+    atomic_csv(reach_.round(4), paths[1], f"./holes calibration-report: each soil in the tools filters' priors by "
+               f"{soil}'s planes (shift own: moved by the soil's own sets' mean residual): the share of the prior "
+               "inside every target, and the set deepest inside, margin_sd in the planes' residual SDs: where a prior "
+               "has room, not a posterior (analysis/soil/onset.py)")
+    return paths
+
+
 def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
-    """onset-reach.csv, onset-planes.csv, onset-filter/evaluations.csv and deepest.csv, onset/probes.csv and
-    onset/cone-ratio.csv in `bench_dir`, where their inputs exist."""
+    """onset-reach.csv, onset-planes.csv, onset-filter/evaluations.csv and deepest.csv, the planes and priors of each
+    soil in PLANES_FOLDERS (`tools_priors_run`), onset/probes.csv and onset/cone-ratio.csv in `bench_dir`, where their
+    inputs exist."""
     paths = []
     if (Path(bench_dir) / "cell-filter" / "clay").is_dir():
         paths += [Path(bench_dir) / "onset-reach.csv", Path(bench_dir) / "onset-planes.csv"]
@@ -368,16 +388,9 @@ def run(bench_dir: Path = BENCH_DIR) -> list[Path]:
                    "the set in the onset prior whose planes over the onset filter's evaluations (and --probe's) lie "
                    "deepest inside every target, margin_sd in the planes' residual SDs: where a probe looks next, "
                    "not a posterior (analysis/soil/onset.py)")
-    if (Path(bench_dir) / "corner-filter").is_dir():
-        planes_, reach_ = tools_priors(bench_dir)
-        paths += [Path(bench_dir) / "corner-filter" / "planes.csv", Path(bench_dir) / "corner-filter" / "priors.csv"]
-        atomic_csv(planes_.round(5), paths[-2], "./holes calibration-report: clay's planes over the tools and corner "
-                   "filters' evaluations (the cone as read at r = 8 mm), a slope per term (the bond per kPa, the "
-                   "modulus per MPa), R², residual SD (analysis/soil/onset.py)")
-        atomic_csv(reach_.round(4), paths[-1], "./holes calibration-report: each soil in the tools and corner "
-                   "filters' priors by clay's planes (shift own: moved by the soil's own sets' mean residual): the "
-                   "share of the prior inside every target, and the set deepest inside, margin_sd in the planes' "
-                   "residual SDs: where a prior has room, not a posterior (analysis/soil/onset.py)")
+    for soil, folder in PLANES_FOLDERS.items():
+        if (Path(bench_dir) / folder).is_dir():
+            paths += tools_priors_run(soil, Path(bench_dir) / folder, bench_dir)
     if (Path(bench_dir) / "onset").is_dir():
         paths += [Path(bench_dir) / "onset" / "probes.csv", Path(bench_dir) / "onset" / "cone-ratio.csv"]
         table = probes(Path(bench_dir) / "onset")
