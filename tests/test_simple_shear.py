@@ -154,8 +154,8 @@ def test_the_filter_takes_the_cell_as_its_shear_test_where_the_bench_says_so(tmp
 def test_a_probe_reads_its_shift_in_c_against_the_posterior_on_its_packing_and_what_it_costs_the_cone(tmp_path):
     """A probe doubling the bond lifts the cell's c from 5 to 10 kPa on packing 1; the cone's plane charges 2 kPa per
     kPa of bond, so 200 kPa of cone for 5 of c, 40 per kPa, and lifting the cells' mean c (5) to clay's floor (20)
-    costs 600 kPa over the posterior's cone (its check's, 450). A probe of another packing than the posterior's runs
-    is left out."""
+    costs 600 kPa over the posterior's cone (its check's, 450). A probe of another packing than the posterior's runs,
+    or of another posterior (setting fewer parameters), is left out."""
     bench_dir, folder = tmp_path / "bench", tmp_path / "cells"
     bench_dir.mkdir()
     post = {"normal_cohesion": 1e5, "friction_deg": 10.0, "pressed_adhesion": 0.1, "rolling_friction": 0.2,
@@ -167,10 +167,11 @@ def test_a_probe_reads_its_shift_in_c_against_the_posterior_on_its_packing_and_w
                   for r, b in (("cone_kpa", 2.0), ("collapse_deg", 0.0))]).to_csv(bench_dir / "surfaces.csv", index=False)
     base = cell.posterior_overrides("clay", bench_dir)
     doubled = {**base, "normal_cohesion": 2e5, "shear_cohesion": 2e5}
-    for name, seed in (("bond2x", 1), ("elsewhere", 7)):
+    fewer = {k: v for k, v in doubled.items() if k != "damping"}           # another posterior's: it set no damping
+    for name, seed, overrides in (("bond2x", 1, doubled), ("elsewhere", 7, doubled), ("other", 1, fewer)):
         (folder / "clay" / "probes" / name).mkdir(parents=True)
         (folder / "clay" / "probes" / name / "x.json").write_text(json.dumps(fake_cell("clay", 120, seed, 10.0, 25.0,
-                                                                                         doubled)))
+                                                                                         overrides)))
     cells = pd.DataFrame([cell.cell_fit(fake_cell("clay", 120, 1, 5.0, 25.0, base))])
     rows = cell.levers("clay", cells, folder, bench_dir)
     assert [r["probe"] for r in rows] == ["bond2x"]

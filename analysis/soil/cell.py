@@ -249,15 +249,21 @@ def levers(soil: str, cells: pd.DataFrame, folder: Path = CELL_DIR, bench_dir: P
     soil's cone plane (surfaces.csv) over the plane's terms. `cone_per_c` is the cone's shift per kPa of the cell's c
     (measured, else the plane's), and `cone_at_c_floor` the posterior's cone (its check, <soil>-check.json) plus
     that cost of lifting the cell's mean c to its target's floor, where the probe lifts it: a lever whose cone there
-    stays under Table 2's ceiling could lift c alone."""
+    stays under Table 2's ceiling could lift c alone. A probe is this posterior's where it sets every parameter the
+    posterior's overrides set (a probe of another posterior, which calibrated or held fewer, is not)."""
     path = Path(folder) / soil / "probes"
     post_file = Path(bench_dir) / f"{soil}-posterior.json"
     if not path.is_dir() or not post_file.exists() or cells.empty:
         return []
-    cfg = load_config(soil=soil)
     want, post = posterior_overrides(soil, bench_dir), rounded(posterior_mean(soil, bench_dir))
+    results = [(f, json.loads(f.read_text())) for f in sorted(path.glob("*/*.json")) if not f.name.endswith(".part.json")]
+    results = [(f, r) for f, r in results if set(want) <= set(r["overrides"])]
+    if not results:
+        return []
+    cfg = load_config(soil=soil)
     base = {(int(r["edge_mm"]), int(r["seed"])): r for _, r in cells.iterrows()}
-    planes = pd.read_csv(Path(bench_dir) / "surfaces.csv", comment="#")
+    surfaces = Path(bench_dir) / "surfaces.csv"
+    planes = pd.read_csv(surfaces, comment="#") if surfaces.exists() else pd.DataFrame(columns=["soil", "response"])
     check = Path(bench_dir) / f"{soil}-check.json"
     cone_post = float(json.loads(check.read_text()).get("cone_kpa", {}).get("mean", np.nan)) if check.exists() else np.nan
     lo, hi = cone_range(soil, cfg) if "cone_check" in cfg else (np.nan, np.nan)
@@ -265,10 +271,7 @@ def levers(soil: str, cells: pd.DataFrame, folder: Path = CELL_DIR, bench_dir: P
     c_floor = target_ranges(soil, cfg)["c_kpa"][0]
     c_mean = float(cells[cells["edge_mm"] == cells["edge_mm"].min()]["c_kpa"].mean())
     rows = []
-    for f in sorted(path.glob("*/*.json")):
-        if f.name.endswith(".part.json"):
-            continue
-        result = json.loads(f.read_text())
+    for f, result in results:
         changed = {k: v for k, v in result["overrides"].items() if want.get(k) != v and k != "shear_cohesion"}
         fit = cell_fit(result)
         ref = base.get((fit["edge_mm"], fit["seed"]))
