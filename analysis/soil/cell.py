@@ -61,8 +61,8 @@ def size_check(soil: str, cfg: dict, seeds: list[int], workers: int, bench_dir: 
             raise RuntimeError(f"scripts/simple_shear.py exited {code} ({out / f'{key}.log'})")
 
     held = cell_packings(soil, folder, bench_dir)     # run here before, or by the filter's checks: not run again
-    held = set() if held.empty else set(zip(held["edge_mm"][held["inertial"] == CELL_INERTIAL],
-                                            held["seed"][held["inertial"] == CELL_INERTIAL]))
+    held = held[held["inertial"] == CELL_INERTIAL] if len(held) else held
+    held = set(zip(held["edge_mm"], held["seed"])) if len(held) else set()
     jobs = [(float(e), s) for e in cfg["cell_edges_mm"] for s in seeds if (round(float(e)), s) not in held]
     in_parallel(one, jobs, workers, f"cell {soil}", "cells")
     run(folder, bench_dir)
@@ -128,8 +128,9 @@ def posterior_overrides(soil: str, bench_dir: Path = BENCH_DIR) -> dict:
     """The scene's --test-set of the soil's posterior mean with the parameters its calibration held fixed (both from
     <bench_dir>/<soil>-posterior.json), as the scene records them (the bench calibration's `overrides`, as
     numbers)."""
+    mean = rounded(posterior_mean(soil, bench_dir))       # a missing posterior: its ConfigError, naming the command
     fixed = json.loads((Path(bench_dir) / f"{soil}-posterior.json").read_text()).get("fixed") or {}
-    return dict(sorted(equal_bonds({**fixed, **rounded(posterior_mean(soil, bench_dir))}).items()))
+    return dict(sorted(equal_bonds({**fixed, **mean}).items()))
 
 
 def size_table(cells: pd.DataFrame) -> pd.DataFrame:

@@ -17,7 +17,6 @@ import pandas as pd
 from scipy import stats
 
 from analysis.core.io import atomic_csv, shown
-from analysis.core.schema import ConfigError
 from analysis.core.soil_config import SOILS
 from analysis.soil.bench_calibration import (BENCH_DIR, RESPONSES, at_posterior, cone_path, cone_range,
                                              difference_interval, filter_seeds, load_config, mean_verdict, measured,
@@ -131,12 +130,7 @@ def run(out_dir: Path = BENCH_DIR, folders: dict[str, Path] | None = None) -> li
     tables.append(responses_apart(columns, targets, ("collapse_deg",)).assign(read_in="column"))
     cones = {s: pd.read_csv(folders[s] / f"{s}-check.csv", comment="#") for s in soils}
     tables.append(responses_apart(cones, targets, ("cone_kpa",)).assign(read_in="cone"))
-    held = {}
-    for s in soils:
-        try:
-            held[s] = dataclasses.asdict(bench_soil(load_soil(s)))
-        except ConfigError:                 # a soil config without a [bench_posterior]: its calibrated ones only
-            held[s] = {}
+    held = {s: dataclasses.asdict(bench_soil(load_soil(s))) for s in soils}
     paths = [out_dir / "soils-apart.csv", out_dir / "soils-apart-parameters.csv"]
     atomic_csv(pd.concat(tables).round(3), paths[0],
                "./holes calibration-report; per bench response, where it is read (read_in: the shear box, mm, over "
