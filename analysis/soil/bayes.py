@@ -82,6 +82,42 @@ def first_samples(bounds: dict, samples: int, seed: int = 0) -> np.ndarray:
     return lo + unit * (hi - lo)
 
 
+SIGMA_CAP = 1.0         # the likelihood's widest sigma: an SD of 4.5 target ranges over four targets, where every
+# sample of a filter here weighs the same to three decimals of the effective sample size
+
+
+def run_inference(inference, system) -> None:
+    """GrainLearning's IterativeBayesFilter.run_inference with its likelihood's sigma searched over log10 sigma from
+    the floor (`sigma_lower_bound`) to the last iteration's sigma, at most SIGMA_CAP. GrainLearning's own search runs
+    over sigma itself up to 1e6: where the effective sample size stays over its target down to the floor (the floor
+    binds), the search's first points fall on the plateau where every weight is equal and it ends there, at a sigma
+    of 1e5-1e6, its posterior the unweighted ensemble.
+
+    >>> from types import SimpleNamespace as N
+    >>> ess = lambda s: min(1.0, 0.4 + s)             # over the target 0.3 everywhere: the floor binds
+    >>> f = N(data_assimilation_loop=lambda s, system, proposal: (ess(s) - 0.3) ** 2,
+    ...       get_posterior_at_time=lambda t: None, posteriors=None)
+    >>> system = N(sigma_lower_bound=0.0037, sigma_max=1e6, sigma_tol=1e-3, compute_estimated_params=lambda p: None)
+    >>> inference = N(Bayes_filter=f, proposal=None, posterior=None)
+    >>> run_inference(inference, system); system.sigma_max < 0.004     # within the search's tolerance of the floor
+    True
+    """
+    from scipy import optimize
+    loop = inference.Bayes_filter.data_assimilation_loop
+
+    def miss(log_sigma: float) -> float:          # (ESS - target)²; a sigma so small every likelihood underflows
+        value = loop(10.0 ** log_sigma, system, inference.proposal)    # (NaN weights) misses the most, 1
+        return float(value) if np.isfinite(value) else 1.0
+
+    lo, hi = np.log10(system.sigma_lower_bound), np.log10(min(system.sigma_max, SIGMA_CAP))
+    x = lo if hi <= lo else optimize.minimize_scalar(miss, method="bounded", bounds=(lo, hi),
+                                                     options={"xatol": 0.01}).x
+    system.sigma_max = float(10.0 ** x)
+    loop(max(system.sigma_max, system.sigma_tol), system, inference.proposal)
+    inference.posterior = inference.Bayes_filter.get_posterior_at_time(-1)
+    system.compute_estimated_params(inference.Bayes_filter.posteriors)
+
+
 def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations: int = 4,
               seed_ess: float = 0.3, seed: int = 0, batch: bool = False, scatter: dict | None = None) -> dict:
     """Fit `bounds`' parameters ({name: (lo, hi)}) so that model(params dict) -> {response: value} meets `targets`
@@ -124,6 +160,7 @@ def calibrate(model, targets: dict, bounds: dict, samples: int = 40, iterations:
         system.param_data = first_samples(bounds, samples, seed)
         calib.inference.param_data_list.append(system.param_data)
     calib.inference.initialize = initialize
+    calib.inference.run_inference = lambda system: run_inference(calib.inference, system)
     import contextlib
     import io
     import warnings
