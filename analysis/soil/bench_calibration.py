@@ -1316,8 +1316,8 @@ def posterior_block(soil: str, post: dict, check_result: dict, command: str, pac
     response lies inside every target's range (status); `packings`, its check on more packings (`packings_line`)."""
     status = check_status(check_result)
     source = shown(Path(folder).resolve() / f"{soil}-posterior.json")
-    lines = [POSTERIOR_HEAD + f" (`{command}`), {source}; the runs of the",
-             "# holes use [soil] above until it is adopted.", "[bench_posterior]",
+    lines = [POSTERIOR_HEAD + f" (`{command}`), {source}; the presets",
+             f'# of soils = "bench" run the one in configs/soils/{soil}.toml, the others [soil] above.', "[bench_posterior]",
              f'folder = "{shown(Path(folder).resolve())}"', f'status = "{status}"']
     if packings:
         lines.append(packings)
