@@ -99,7 +99,6 @@ def test_the_scatter_names_every_target():
                   scatter={"a": 1.0})
 
 
-
 LOAM_FIRST = [  # loam's own-planes filter, first iteration on packing 1: c kPa, φ °, slope °, cone kPa (rounded)
     (20.4, 22.2, 33.4, 453.4), (13.7, 24.4, 33.5, 384.7), (20.2, 20.0, 34.5, 345.3), (16.7, 25.1, 34.3, 595.1),
     (18.2, 24.4, 35.2, 511.6), (14.2, 24.1, 36.0, 354.4), (16.3, 24.5, 34.0, 483.4), (18.7, 24.9, 34.2, 513.2),

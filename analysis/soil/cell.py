@@ -61,8 +61,8 @@ def size_check(soil: str, cfg: dict, seeds: list[int], workers: int, bench_dir: 
             raise RuntimeError(f"scripts/simple_shear.py exited {code} ({out / f'{key}.log'})")
 
     held = cell_packings(soil, folder, bench_dir)     # run here before, or by the filter's checks: not run again
-    held = held[held["inertial"] == CELL_INERTIAL] if len(held) else held
-    held = set(zip(held["edge_mm"], held["seed"])) if len(held) else set()
+    held = set() if held.empty else {(e, s) for e, s, i in zip(held["edge_mm"], held["seed"], held["inertial"])
+                                     if i == CELL_INERTIAL}
     jobs = [(float(e), s) for e in cfg["cell_edges_mm"] for s in seeds if (round(float(e)), s) not in held]
     in_parallel(one, jobs, workers, f"cell {soil}", "cells")
     run(folder, bench_dir)
