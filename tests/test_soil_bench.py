@@ -1116,6 +1116,39 @@ def test_the_cone_screen_runs_no_cone_where_the_bench_already_misses_and_takes_w
             bench.load_config(tmp_path / "b.toml")
 
 
+def test_a_shear_shift_makes_the_filter_aim_at_the_sized_cells_reading_and_keep_its_own(tmp_path, monkeypatch):
+    """[bench] shear_shift: the filter weighs c and φ as its cell's reading plus the shift, so that over a made-up
+    bench whose sized cell reads c 2 kPa higher and φ 1.5° lower its posterior is the one a filter shearing in the
+    sized cell draws, not the unshifted one; its table keeps its own cell's readings and its posterior names the
+    shift. A shift past its limits, or of another response, is refused."""
+    shift = {"c_kpa": 2.0, "phi_deg": -1.5}
+
+    def bench_reading(sized: bool):
+        def fake(soil, seed, params, cfg, out_dir):
+            read = made_up_bench(params)
+            moved = {r: read[r] + v for r, v in shift.items()} if sized else {}
+            return {"soil": soil, "seed": seed, **params, **read, **moved, "tau_peak_kpa": [], "wall_s": 0.0}
+        return fake
+    cfg = {**bench.load_config(), "samples": 8, "iterations": 2, "workers": 1}
+    monkeypatch.setattr(bench, "evaluate", bench_reading(sized=True))
+    sized = bench.calibrate("clay", cfg, tmp_path / "sized")
+    monkeypatch.setattr(bench, "evaluate", bench_reading(sized=False))
+    aimed = bench.calibrate("clay", {**cfg, "shear_shift": shift}, tmp_path / "aimed")
+    plain = bench.calibrate("clay", cfg, tmp_path / "plain")
+    assert all(aimed["mean"][n] == pytest.approx(sized["mean"][n]) for n in sized["mean"])
+    assert not all(plain["mean"][n] == pytest.approx(sized["mean"][n]) for n in sized["mean"])
+    table = pd.read_csv(tmp_path / "aimed" / "clay.csv", comment="#")
+    read = pd.DataFrame([made_up_bench(row) for row in table.to_dict(orient="records")])
+    assert np.allclose(table[["c_kpa", "phi_deg"]], read[["c_kpa", "phi_deg"]])
+    assert json.loads((tmp_path / "aimed" / "clay-posterior.json").read_text())["shear_shift"] == shift
+    assert "shear_shift" not in json.loads((tmp_path / "plain" / "clay-posterior.json").read_text())
+    text = bench.CONFIG.read_text()
+    for bad in ("{c_kpa = 25.0}", "{phi_deg = -11}", "{h1 = 1.0}", "{phi_deg = true}", "[1, 2]"):
+        (tmp_path / "b.toml").write_text(text.replace("shear_shift = {} ", f"shear_shift = {bad} ", 1))
+        with pytest.raises(ConfigError, match="bench.shear_shift"):
+            bench.load_config(tmp_path / "b.toml")
+
+
 def test_while_a_filter_runs_the_report_draws_its_planes_and_profiles_over_the_finished_iterations(tmp_path):
     """No soil's filter finished: `calibration-report` fits the planes over <soil>-running.csv and draws each
     parameter's margin profile; a parameter no made-up response feels profiles flat, a pinned one falls off."""

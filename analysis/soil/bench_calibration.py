@@ -40,6 +40,7 @@ TOOL_FRICTION = ROOT / "configs/field/tool_friction.csv"
 TOOL_FRICTIONS = ("grain", "field")   # [cone_check] tool_friction: the lesser of the grain's and the steel's, or the soil's
 RESPONSES = ("c_kpa", "phi_deg", "collapse_deg")
 SHEAR_RESPONSES = ("c_kpa", "phi_deg")    # the shear box's: what its size check moves
+SHIFT_LIMIT = {"c_kpa": 20.0, "phi_deg": 10.0}   # the largest [bench] shear_shift: a cell this far off is no sized cell
 UNTESTABLE = 3         # a bench scene's exit code when it stopped the test itself (scripts/shear.py, scripts/collapse.py)
 SCENES_VERSION = 3     # raised whenever scripts/shear.py or scripts/collapse.py measure otherwise: no stale evaluation is reused
 
@@ -153,6 +154,12 @@ def load_config(path: Path = CONFIG, soil: str | None = None) -> dict:
         raise ConfigError(f"{path}: bench.shear_test = {bench.get('shear_test')!r}: allowed \"box\" (the direct shear "
                           "box) or \"cell\" (the wall-free simple shear cell, at the first of cell_edges_mm, which it "
                           "needs)")
+    shift = bench.get("shear_shift", {})
+    if not isinstance(shift, dict) or set(shift) - set(SHEAR_RESPONSES) or any(
+            isinstance(v, bool) or not isinstance(v, (int, float)) or abs(v) > SHIFT_LIMIT[r] for r, v in shift.items()):
+        raise ConfigError(f"{path}: bench.shear_shift = {shift!r}: allowed a table of c_kpa (within ± "
+                          f"{SHIFT_LIMIT['c_kpa']:g} kPa) and phi_deg (within ± {SHIFT_LIMIT['phi_deg']:g}°), the sized "
+                          "cell's reading minus the filter's")
     if bench.get("collapse_floor", "plane") not in FLOORS:
         raise ConfigError(f"{path}: bench.collapse_floor = {bench['collapse_floor']!r}: allowed "
                           f"{' or '.join(repr(f) for f in FLOORS)} (scripts/collapse.py --floor)")
@@ -549,15 +556,16 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
             .drop(columns=["tau_peak_kpa"], errors="ignore")
 
     ranges = target_ranges(soil, cfg)
+    shift = cfg.get("shear_shift", {})
     screen = cone_screen(ranges, cfg)
 
     def model_batch(rows: list[dict]) -> list[dict]:
         out = evaluate_all(soil, in_turn(seeds, rows), cfg, out_dir, with_cone=bool(cfg.get("cone_target")),
-                           screen=screen)
+                           screen=screen and (lambda row: screen(shifted(row, shift))))
         history.append(out)
         atomic_csv(finished(), running, f"./holes calibrate --soil {soil} --bench: the filter's finished iterations, "
                    f"until its posterior is drawn ({len(history)} of {cfg['iterations']})")
-        return [screened_as_met(r, ranges) for r in out]
+        return [screened_as_met(shifted(r, shift), ranges) for r in out]
 
     post = bayes(model_batch, ranges, cfg["bounds"], samples=int(cfg["samples"]), iterations=int(cfg["iterations"]),
                  batch=True, scatter=cfg.get("packing_scatter"))
@@ -570,6 +578,8 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
     summary["likelihood_sigma"] = post["sigma"]
     summary["packing_scatter"] = dict(cfg.get("packing_scatter", {}))
     summary["shear_reading"] = READING      # without it: drawn on the lid's load alone
+    if shift:
+        summary["shear_shift"] = dict(shift)    # what the filter added to its shear test's c and φ
     summary["prior"] = {k: list(v) for k, v in cfg["bounds"].items()}
     summary["interval"] = weighted_intervals(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
     summary["correlation"] = weighted_correlation(table[last], post["names"], table.loc[last, "weight_last"].to_numpy())
@@ -603,6 +613,17 @@ def cone_screen(ranges: dict, cfg: dict):
     def out(row: dict) -> bool:
         return any(max(ranges[r][0] - row[r], row[r] - ranges[r][1]) > k * scatter[r] for r in RESPONSES)
     return out
+
+
+def shifted(row: dict, shift: dict) -> dict:
+    """An evaluation's c and φ as the filter weighs them: its shear test's reading plus [bench] shear_shift
+    ({response: shift}, the sized cell's reading minus the filter's cell's, measured at a posterior), so that a filter
+    shearing in a cell that fails its size check aims where the check judges; its table keeps the reading.
+
+    >>> shifted({"c_kpa": 16.0, "phi_deg": 25.5, "collapse_deg": 34.0}, {"c_kpa": 2.5, "phi_deg": -1.5})
+    {'c_kpa': 18.5, 'phi_deg': 24.0, 'collapse_deg': 34.0}
+    """
+    return {**row, **{r: row[r] + float(v) for r, v in shift.items()}}
 
 
 def screened_as_met(row: dict, ranges: dict) -> dict:

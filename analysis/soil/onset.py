@@ -319,7 +319,8 @@ def prior_reach(coefs: dict, sds: dict, ranges: dict, bounds: dict, n: int = 200
 def tools_priors(bench_dir: Path = BENCH_DIR, planes_soil: str = "clay") -> tuple[pd.DataFrame, pd.DataFrame]:
     """`planes_soil`'s planes in TOOLS_TERMS over the tools and corner filters' evaluations (`tools_evaluations`; the
     cone as read, r = 8 mm, the collapse slope on the grains), and each soil's reach (`prior_reach`) in each of those
-    filters' priors against its targets (the cone's reading times the config's transfer): the planes as fitted, and
+    filters' priors against its targets (the cone's reading times the config's transfer, c and φ plus its
+    shear_shift): the planes as fitted, and
     for another soil also shifted by its own offsets, the mean residual of its own sets (its beds' density and its
     friction on steel differ). Returns the planes (a row a response) and the reaches (a row a soil, prior and
     shift)."""
@@ -339,9 +340,10 @@ def tools_priors(bench_dir: Path = BENCH_DIR, planes_soil: str = "clay") -> tupl
             transfer = float(cfg["cone_check"].get("transfer", 1.0))
             ranges = {**target_ranges(soil, cfg), "cone_kpa": cone_range(soil, cfg)}
             scale = {r: transfer if r == "cone_kpa" else 1.0 for r in RESPONSES}
+            added = cfg.get("shear_shift", {})          # c and φ as that filter weighs them
             for shift in ("none", "own")[:1 if soil == planes_soil else 2]:
                 coefs = {r: np.r_[c[0] + (offsets[r] if shift == "own" else 0.0), c[1:]] * scale[r]
-                         for r, (c, _, _) in fits.items()}
+                         + np.r_[added.get(r, 0.0), np.zeros(len(c) - 1)] for r, (c, _, _) in fits.items()}
                 rows.append({"soil": soil, "prior": name, "shift": shift, "own_sets": len(own),
                              **{f"offset_{r}": offsets[r] for r in RESPONSES},
                              **prior_reach(coefs, {r: sd * scale[r] for r, (_, _, sd) in fits.items()}, ranges,
