@@ -44,7 +44,8 @@ SCALE = {"normal_cohesion": 1e3, "young": 1e6}     # the bond in kPa and the mod
 TOOLS_TERMS = (*TERMS, "young")                    # the planes of the filters that calibrate the contact modulus too
 TOOLS_CONFIGS = {"tools-filter": ROOT / "configs/bench_calibration_tools.toml",   # the filters with the cone at the
                  "corner-filter": ROOT / "configs/bench_calibration_corner.toml",  # soil's friction on steel
-                 "own-filter": ROOT / "configs/bench_calibration_own.toml"}
+                 "own-filter": ROOT / "configs/bench_calibration_own.toml",
+                 "sized-filter": ROOT / "configs/bench_calibration_sized.toml"}
 # a test's scene options kept in its row, each with its type: a cone's grains, size and speed
 OPTIONS = {"--resolution": ("resolution", str), "--cone-scale": ("cone_scale", float),
            "--cone-speed": ("cone_speed", float)}
