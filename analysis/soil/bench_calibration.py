@@ -561,7 +561,7 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
 
     def model_batch(rows: list[dict]) -> list[dict]:
         out = evaluate_all(soil, in_turn(seeds, rows), cfg, out_dir, with_cone=bool(cfg.get("cone_target")),
-                           screen=screen and (lambda row: screen(shifted(row, shift))))
+                           screen=screen)
         history.append(out)
         atomic_csv(finished(), running, f"./holes calibrate --soil {soil} --bench: the filter's finished iterations, "
                    f"until its posterior is drawn ({len(history)} of {cfg['iterations']})")
@@ -594,7 +594,8 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
 
 
 def cone_screen(ranges: dict, cfg: dict):
-    """The filter's cone screen: a function telling whether an evaluation's bench responses already put it more than
+    """The filter's cone screen: a function telling whether an evaluation's bench responses (c and φ plus [bench]
+    shear_shift, as the filter weighs them, `shifted`) already put it more than
     [bench] cone_screen_sd packing-scatter SDs ([packing_scatter]) outside one of its ranges, so that its cone (two
     thirds of an evaluation's cost) is not run; None where the soil's cone is no target or cone_screen_sd is 0.
 
@@ -608,9 +609,10 @@ def cone_screen(ranges: dict, cfg: dict):
     k = float(cfg.get("cone_screen_sd", 0))
     if not cfg.get("cone_target") or k == 0:
         return None
-    scatter = cfg["packing_scatter"]
+    scatter, shift = cfg["packing_scatter"], cfg.get("shear_shift", {})
 
     def out(row: dict) -> bool:
+        row = shifted(row, shift)                # c and φ as the filter weighs them
         return any(max(ranges[r][0] - row[r], row[r] - ranges[r][1]) > k * scatter[r] for r in RESPONSES)
     return out
 

@@ -343,8 +343,8 @@ def tools_priors(bench_dir: Path = BENCH_DIR, planes_soil: str = "clay") -> tupl
             scale = {r: transfer if r == "cone_kpa" else 1.0 for r in RESPONSES}
             added = cfg.get("shear_shift", {})          # c and φ as that filter weighs them
             for shift in ("none", "own")[:1 if soil == planes_soil else 2]:
-                coefs = {r: np.r_[c[0] + (offsets[r] if shift == "own" else 0.0), c[1:]] * scale[r]
-                         + np.r_[added.get(r, 0.0), np.zeros(len(c) - 1)] for r, (c, _, _) in fits.items()}
+                coefs = {r: np.r_[(c[0] + (offsets[r] if shift == "own" else 0.0)) * scale[r] + added.get(r, 0.0),
+                                  c[1:] * scale[r]] for r, (c, _, _) in fits.items()}
                 rows.append({"soil": soil, "prior": name, "shift": shift, "own_sets": len(own),
                              **{f"offset_{r}": offsets[r] for r in RESPONSES},
                              **prior_reach(coefs, {r: sd * scale[r] for r, (_, _, sd) in fits.items()}, ranges,
