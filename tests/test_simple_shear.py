@@ -272,6 +272,31 @@ def test_a_variant_filters_pictures_show_its_own_parameters_in_its_folder(tmp_pa
     assert bench.report(tmp_path / "none", config) == []
 
 
+
+def test_a_shifted_filters_responses_are_pictured_as_it_weighs_them(tmp_path, monkeypatch):
+    """A filter with a [bench] shear_shift (loam's sized filter) pictures c and φ as it weighs them, its reading plus
+    the shift, and names the shift in the panel's title; the collapse slope, not shifted, as read."""
+    import matplotlib.pyplot as plt
+    config = bench.ROOT / "configs/bench_calibration_sized.toml"
+    cfg = bench.load_config(config, "loam")
+    shift, names = cfg["shear_shift"], list(cfg["bounds"])
+    t = pd.DataFrame([{**{k: lo + (hi - lo) * f for k, (lo, hi) in cfg["bounds"].items()},
+                       "c_kpa": 15 + 2 * f, "phi_deg": 25 + f, "collapse_deg": 34.0, "iteration": 1,
+                       "weight_last": 0.5} for f in (0.2, 0.6)])
+    t.to_csv(tmp_path / "loam.csv", index=False)
+    (tmp_path / "loam-posterior.json").write_text(json.dumps({"mean": {k: t[k].mean() for k in names},
+                                                              "interval": {k: [t[k].min(), t[k].max()] for k in names}}))
+    drawn = {}
+    monkeypatch.setattr(plt.Figure, "savefig", lambda self, path, **k: drawn.update({Path(path).name: [
+        (ax.get_title(), sorted(ax.collections[0].get_offsets()[:, 1])) for ax in self.axes]}))
+    bench.report(tmp_path, config)
+    panels = dict(drawn["responses.png"])
+    c_title, phi_title = (next(k for k in panels if k.startswith(r)) for r in ("c_kpa", "phi_deg"))
+    assert panels[c_title] == pytest.approx(sorted(t["c_kpa"] + shift["c_kpa"]))
+    assert panels[phi_title] == pytest.approx(sorted(t["phi_deg"] + shift["phi_deg"]))
+    assert "shift" in c_title and f"{shift['phi_deg']:+g}" in phi_title
+    assert panels["collapse_deg"] == pytest.approx(sorted(t["collapse_deg"]))
+
 PARAMS = {"normal_cohesion": 9e4, "friction_deg": 6.0, "pressed_adhesion": 0.3, "rolling_friction": 0.2, "damping": 0.15,
           "bond_stretch": 0.4}
 

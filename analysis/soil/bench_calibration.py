@@ -1224,9 +1224,9 @@ def cone_scene(args: list[str], log_path: Path) -> dict:
 def report(out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
     """Pictures of every soil calibrated so far: the filter's samples and posterior per parameter
     (posterior.png), and each bench response of the samples and of the posterior's check packings against the
-    target's range (responses.png); with the response surfaces (`surfaces_report`) for the filter of
-    configs/bench_calibration.toml. `config`: a variant config, whose filter's folder `out_dir` is (`filter_dir`):
-    its parameters, no surfaces."""
+    target's range (responses.png; c and φ as the filter weighs them, plus its [bench] shear_shift); with the
+    response surfaces (`surfaces_report`) for the filter of configs/bench_calibration.toml. `config`: a variant
+    config, whose filter's folder `out_dir` is (`filter_dir`): its parameters, no surfaces."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -1258,6 +1258,7 @@ def report(out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
     fig.savefig(paths[0], dpi=110)
     plt.close(fig)
     checks = {soil: json.loads(p.read_text()) for soil in soils if (p := Path(out_dir) / f"{soil}-check.json").exists()}
+    shifts = {soil: load_config(config or CONFIG, soil).get("shear_shift", {}) for soil in soils}
     panels = [*RESPONSES, *(["cone_kpa"] if any("cone_kpa" in c for c in checks.values()) else [])]
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.4), squeeze=False)
     for j, r in enumerate(panels):
@@ -1271,16 +1272,19 @@ def report(out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
                 lo, hi = load_targets(soil).loc[r, ["lo", "hi"]]
             ax.add_patch(plt.Rectangle((i - 0.35, lo), 0.7, hi - lo, color=SOIL_COLOURS[soil], alpha=0.2,
                                        label="target range" if i == 0 else None))
+            shift = float(shifts[soil].get(r, 0.0))     # a shifted filter's c and φ: its reading plus the shift
             t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
             if r in t:
-                ax.scatter(np.full(len(t), i - 0.15), t[r], s=10, c="0.5",
+                ax.scatter(np.full(len(t), i - 0.15), t[r] + shift, s=10, c="0.5",
                            label="filter's samples, as weighed" if i == 0 else None)
             check_path = Path(out_dir) / f"{soil}-check.csv"
             c = pd.read_csv(check_path, comment="#") if check_path.exists() else pd.DataFrame()
             points = c[r].to_numpy(float) if r in c else [checks[soil][r]["mean"]] if r in checks.get(soil, {}) else []
-            ax.scatter(np.full(len(points), i + 0.15), points, s=36, marker="D", c=SOIL_COLOURS[soil],
-                       label="posterior mean, check packings" if i == 0 else None)
-        ax.set_xticks(range(len(soils)), soils), ax.set_title(r), ax.set_xlim(-0.6, len(soils) - 0.4)
+            ax.scatter(np.full(len(points), i + 0.15), np.asarray(points, float) + shift, s=36, marker="D",
+                       c=SOIL_COLOURS[soil], label="posterior mean, check packings" if i == 0 else None)
+        moved = {f"{s} {v:+g}" for s in soils for k, v in shifts[s].items() if k == r}
+        ax.set_xticks(range(len(soils)), soils), ax.set_xlim(-0.6, len(soils) - 0.4)
+        ax.set_title(f"{r}: reading + shift ({', '.join(sorted(moved))})" if moved else r)
         ax.autoscale_view()
     axes[0][0].legend(fontsize=7)
     fig.tight_layout()
