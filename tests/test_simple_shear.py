@@ -272,7 +272,6 @@ def test_a_variant_filters_pictures_show_its_own_parameters_in_its_folder(tmp_pa
     assert bench.report(tmp_path / "none", config) == []
 
 
-
 def test_a_shifted_filters_responses_are_pictured_as_it_weighs_them(tmp_path, monkeypatch):
     """A filter with a [bench] shear_shift (loam's sized filter) pictures c and φ as it weighs them, its reading plus
     the shift, and names the shift in the panel's title; the collapse slope, not shifted, as read."""
@@ -296,6 +295,7 @@ def test_a_shifted_filters_responses_are_pictured_as_it_weighs_them(tmp_path, mo
     assert panels[phi_title] == pytest.approx(sorted(t["phi_deg"] + shift["phi_deg"]))
     assert "shift" in c_title and f"{shift['phi_deg']:+g}" in phi_title
     assert panels["collapse_deg"] == pytest.approx(sorted(t["collapse_deg"]))
+
 
 PARAMS = {"normal_cohesion": 9e4, "friction_deg": 6.0, "pressed_adhesion": 0.3, "rolling_friction": 0.2, "damping": 0.15,
           "bond_stretch": 0.4}

@@ -595,9 +595,9 @@ def calibrate(soil: str, cfg: dict | None = None, out_dir: Path = BENCH_DIR) -> 
 
 def cone_screen(ranges: dict, cfg: dict):
     """The filter's cone screen: a function telling whether an evaluation's bench responses (c and φ plus [bench]
-    shear_shift, as the filter weighs them, `shifted`) already put it more than
-    [bench] cone_screen_sd packing-scatter SDs ([packing_scatter]) outside one of its ranges, so that its cone (two
-    thirds of an evaluation's cost) is not run; None where the soil's cone is no target or cone_screen_sd is 0.
+    shear_shift, as the filter weighs them, `shifted`) already put it more than [bench] cone_screen_sd
+    packing-scatter SDs ([packing_scatter]) outside one of its ranges, so that its cone (two thirds of an
+    evaluation's cost) is not run; None where the soil's cone is no target or cone_screen_sd is 0.
 
     >>> screen = cone_screen({"c_kpa": (20, 35), "phi_deg": (20, 30), "collapse_deg": (30, 38)},
     ...                      {"cone_target": True, "cone_screen_sd": 3, "packing_scatter": {"c_kpa": 5.1,

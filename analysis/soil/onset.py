@@ -321,10 +321,9 @@ def tools_priors(bench_dir: Path = BENCH_DIR, planes_soil: str = "clay") -> tupl
     """`planes_soil`'s planes in TOOLS_TERMS over the tools and corner filters' evaluations (`tools_evaluations`; the
     cone as read, r = 8 mm, the collapse slope on the grains), and each soil's reach (`prior_reach`) in each of those
     filters' priors against its targets (the cone's reading times the config's transfer, c and φ plus its
-    shear_shift): the planes as fitted, and
-    for another soil also shifted by its own offsets, the mean residual of its own sets (its beds' density and its
-    friction on steel differ). Returns the planes (a row a response) and the reaches (a row a soil, prior and
-    shift)."""
+    shear_shift): the planes as fitted, and for another soil also shifted by its own offsets, the mean residual of
+    its own sets (its beds' density and its friction on steel differ). Returns the planes (a row a response) and the
+    reaches (a row a soil, prior and shift)."""
     table = tools_evaluations(bench_dir)
     base = table[table["soil"] == planes_soil]
     fits = {r: plane(base[base["floor"] == "grains"] if r == "collapse_deg" else base, r, TOOLS_TERMS)
