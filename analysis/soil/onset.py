@@ -45,7 +45,8 @@ TOOLS_TERMS = (*TERMS, "young")                    # the planes of the filters t
 TOOLS_CONFIGS = {"tools-filter": ROOT / "configs/bench_calibration_tools.toml",   # the filters with the cone at the
                  "corner-filter": ROOT / "configs/bench_calibration_corner.toml",  # soil's friction on steel
                  "own-filter": ROOT / "configs/bench_calibration_own.toml",
-                 "sized-filter": ROOT / "configs/bench_calibration_sized.toml"}
+                 "sized-filter": ROOT / "configs/bench_calibration_sized.toml",
+                 "sized-cone-filter": ROOT / "configs/bench_calibration_sized_cone.toml"}
 # a test's scene options kept in its row, each with its type: a cone's grains, size and speed
 OPTIONS = {"--resolution": ("resolution", str), "--cone-scale": ("cone_scale", float),
            "--cone-speed": ("cone_speed", float)}
