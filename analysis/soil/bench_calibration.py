@@ -1233,10 +1233,12 @@ def report(out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
     soils = [s for s in ("clay", "loam", "sand") if (Path(out_dir) / f"{s}.csv").exists()]
     if not soils:                     # no filter finished: the planes over the running ones' finished iterations
         return surfaces_report(out_dir) if config is None else []
-    names = list(dict.fromkeys(k for s in soils for k in load_config(config or CONFIG, s)["bounds"]))
+    cfgs = {s: load_config(config or CONFIG, s) for s in soils}
+    tables = {s: pd.read_csv(Path(out_dir) / f"{s}.csv", comment="#") for s in soils}
+    names = list(dict.fromkeys(k for s in soils for k in cfgs[s]["bounds"]))
     fig, axes = plt.subplots(len(soils), len(names), figsize=(4 * len(names), 2.6 * len(soils)), squeeze=False)
     for i, soil in enumerate(soils):
-        t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
+        t = tables[soil]
         post = json.loads((Path(out_dir) / f"{soil}-posterior.json").read_text())
         last = t[t["weight_last"].notna()]
         for j, n in enumerate(names):
@@ -1258,7 +1260,9 @@ def report(out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
     fig.savefig(paths[0], dpi=110)
     plt.close(fig)
     checks = {soil: json.loads(p.read_text()) for soil in soils if (p := Path(out_dir) / f"{soil}-check.json").exists()}
-    shifts = {soil: load_config(config or CONFIG, soil).get("shear_shift", {}) for soil in soils}
+    shifts = {soil: cfgs[soil].get("shear_shift", {}) for soil in soils}
+    check_tables = {soil: pd.read_csv(p, comment="#") if (p := Path(out_dir) / f"{soil}-check.csv").exists()
+                    else pd.DataFrame() for soil in soils}
     panels = [*RESPONSES, *(["cone_kpa"] if any("cone_kpa" in c for c in checks.values()) else [])]
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.4), squeeze=False)
     for j, r in enumerate(panels):
@@ -1273,16 +1277,15 @@ def report(out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
             ax.add_patch(plt.Rectangle((i - 0.35, lo), 0.7, hi - lo, color=SOIL_COLOURS[soil], alpha=0.2,
                                        label="target range" if i == 0 else None))
             shift = float(shifts[soil].get(r, 0.0))     # a shifted filter's c and φ: its reading plus the shift
-            t = pd.read_csv(Path(out_dir) / f"{soil}.csv", comment="#")
+            t = tables[soil]
             if r in t:
                 ax.scatter(np.full(len(t), i - 0.15), t[r] + shift, s=10, c="0.5",
                            label="filter's samples, as weighed" if i == 0 else None)
-            check_path = Path(out_dir) / f"{soil}-check.csv"
-            c = pd.read_csv(check_path, comment="#") if check_path.exists() else pd.DataFrame()
+            c = check_tables[soil]
             points = c[r].to_numpy(float) if r in c else [checks[soil][r]["mean"]] if r in checks.get(soil, {}) else []
             ax.scatter(np.full(len(points), i + 0.15), np.asarray(points, float) + shift, s=36, marker="D",
                        c=SOIL_COLOURS[soil], label="posterior mean, check packings" if i == 0 else None)
-        moved = {f"{s} {v:+g}" for s in soils for k, v in shifts[s].items() if k == r}
+        moved = {f"{s} {shifts[s][r]:+g}" for s in soils if r in shifts[s]}
         ax.set_xticks(range(len(soils)), soils), ax.set_xlim(-0.6, len(soils) - 0.4)
         ax.set_title(f"{r}: reading + shift ({', '.join(sorted(moved))})" if moved else r)
         ax.autoscale_view()
