@@ -172,7 +172,7 @@ def calibrate_command(args) -> str:
 def packings_checked(args, cfg: dict, out_dir: Path) -> dict:
     """`calibrate --bench --check-packings`: the check on the packings of --seeds of the posterior (or deepest set) of
     the filter kept in out_dir; the posterior's is recorded in its soil config's [bench_posterior] too
-    (`posterior_config`)."""
+    (`posterior_configs`)."""
     from analysis.soil import bench_calibration as bench
     seeds = args.seeds or [1]
     result = bench.check_packings(args.soil, seeds, cfg, out_dir, which=args.check_packings)

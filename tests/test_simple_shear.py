@@ -218,6 +218,32 @@ def test_the_onset_config_fixes_the_held_onset_in_its_own_folder_and_refuses_a_f
         bench.load_config(tmp_path / "v.toml")
 
 
+def test_a_posterior_reaches_the_runs_soil_only_from_the_folder_it_names(tmp_path, monkeypatch):
+    """Once another filter's posterior is adopted (configs/soils/<soil>.toml names its folder), the box filter's
+    posterior written again goes into its own record, <BENCH_DIR>/<soil>.toml, and leaves the runs' soil as it is; the
+    adopted filter's reaches both its record and the runs' soil."""
+    box, adopted = tmp_path / "bench", tmp_path / "bench" / "corner"
+    adopted.mkdir(parents=True)
+    (tmp_path / "configs/soils").mkdir(parents=True)
+    runs = tmp_path / "configs/soils/sand.toml"
+    runs.write_text((bench.ROOT / "configs/soils/sand.toml").read_text()
+                    .replace('folder = "results/calibration/bench"', 'folder = "bench/corner"'))
+    monkeypatch.setattr(bench, "ROOT", tmp_path)
+    monkeypatch.setattr(bench, "BENCH_DIR", box)
+    assert bench.posterior_configs("sand", box) == [box / "sand.toml"]
+    assert bench.posterior_configs("sand", adopted) == [adopted / "sand.toml", runs]
+    post = {"names": ["friction_deg"], "mean": {"friction_deg": 6.1}, "interval": {"friction_deg": [5.0, 7.0]},
+            "correlation": {"friction_deg": {"friction_deg": 1.0}}, "fixed": {}}
+    check = {"c_kpa": {"mean": 3.0, "sd": 1.0, "target": [0, 12], "every_packing_inside": True, "mean_inside": True}}
+    before = runs.read_text()
+    assert bench.write_posterior("sand", post, check, "box", folder=box) == box / "sand.toml"
+    assert runs.read_text() == before and "friction_deg = { mean = 6.1" in (box / "sand.toml").read_text()
+    bench.write_posterior("sand", {**post, "mean": {"friction_deg": 7.2}}, check, "adopted", folder=adopted)
+    for written in (adopted / "sand.toml", runs):
+        text = written.read_text()
+        assert text.count("[bench_posterior]") == 1 and "friction_deg = { mean = 7.2" in text
+
+
 def test_a_variant_configs_checks_and_posterior_stay_in_its_folder(tmp_path, monkeypatch):
     """Under a variant config the checks of the posterior read and write the variant filter's folder, and its
     posterior goes into a copy of the soil config there: configs/soils/<soil>.toml, whose [bench_posterior] the runs
@@ -233,7 +259,7 @@ def test_a_variant_configs_checks_and_posterior_stay_in_its_folder(tmp_path, mon
     assert seen == [folder, (folder, f"./holes calibrate --soil clay --bench --config {onset_cfg}")]
     soils = bench.ROOT / "configs/soils/clay.toml"
     before = soils.read_text()
-    assert bench.posterior_config("clay") == soils and bench.posterior_config("clay", tmp_path) == tmp_path / "clay.toml"
+    assert bench.posterior_configs("clay", tmp_path) == [tmp_path / "clay.toml"]
     post = {"names": ["friction_deg"], "mean": {"friction_deg": 6.1}, "interval": {"friction_deg": [5.0, 7.0]},
             "correlation": {"friction_deg": {"friction_deg": 1.0}}, "fixed": {"adhesion_onset": 4.0e4}}
     check = {"c_kpa": {"mean": 21.0, "sd": 1.0, "target": [20, 35], "every_packing_inside": True, "mean_inside": True}}

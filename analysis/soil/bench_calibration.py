@@ -1365,33 +1365,40 @@ def posterior_block(soil: str, post: dict, check_result: dict, command: str, pac
     return "\n".join(lines) + "\n"
 
 
-def posterior_config(soil: str, folder: Path = BENCH_DIR) -> Path:
-    """The soil config a filter's posterior is written into as its `[bench_posterior]`: configs/soils/<soil>.toml for
-    the filter of configs/bench_calibration.toml (folder BENCH_DIR: the posterior the presets' `soils = "bench"` run),
-    else <folder>/<soil>.toml, a copy of the soil's config beside a variant config's evaluations. A variant's posterior
-    (another shear test or contact law) so replaces none the runs use; copied over configs/soils/<soil>.toml, it is
-    adopted.
+def posterior_configs(soil: str, folder: Path = BENCH_DIR) -> list[Path]:
+    """The soil configs a filter's posterior is written into as their `[bench_posterior]`: the filter's own record,
+    <folder>/<soil>.toml (a copy of the soil's config beside its evaluations), and configs/soils/<soil>.toml, the
+    runs' soil (the presets' `soils = "bench"`), where its `[bench_posterior]` names `folder`. The box filter
+    (configs/bench_calibration.toml, folder BENCH_DIR) keeps no record of its own while the runs' config carries its
+    posterior or none yet. A posterior drawn in another folder so replaces none the runs use; copied over
+    configs/soils/<soil>.toml it is adopted, and its filter's later checks reach both files.
 
-    >>> [str(posterior_config("clay", f).relative_to(ROOT)) for f in (BENCH_DIR, BENCH_DIR / "onset-filter")]
-    ['configs/soils/clay.toml', 'results/calibration/bench/onset-filter/clay.toml']
+    >>> [[str(c.relative_to(ROOT)) for c in posterior_configs(s, f)]
+    ...  for s, f in (("sand", BENCH_DIR), ("sand", BENCH_DIR / "onset-filter"))]
+    [['configs/soils/sand.toml'], ['results/calibration/bench/onset-filter/sand.toml']]
     """
-    folder = Path(folder)
-    return ROOT / "configs/soils" / f"{soil}.toml" if folder.resolve() == BENCH_DIR.resolve() else folder / f"{soil}.toml"
+    folder, runs = Path(folder), ROOT / "configs/soils" / f"{soil}.toml"
+    drawn = tomllib.loads(runs.read_text()).get("bench_posterior", {}).get("folder")
+    here = folder.resolve() == (ROOT / drawn).resolve() if drawn else folder.resolve() == BENCH_DIR.resolve()
+    own = [] if here and folder.resolve() == BENCH_DIR.resolve() else [folder / f"{soil}.toml"]
+    return own + ([runs] if here else [])
 
 
 def write_posterior(soil: str, post: dict, check_result: dict, command: str, path: Path | None = None,
                     packings: str | None = None, folder: Path = BENCH_DIR) -> Path:
-    """Put (or replace) the `[bench_posterior]` table of the soil config `path` (default `posterior_config`), keeping
-    the rest of the file as it is (a path not yet written starts as a copy of configs/soils/<soil>.toml); the file
-    must still load."""
+    """Put (or replace) the `[bench_posterior]` table of the soil config `path` (default: each of
+    `posterior_configs`), keeping the rest of each file as it is (a path not yet written starts as a copy of
+    configs/soils/<soil>.toml); each file must still load. Returns the first written."""
     from analysis.core.soil_config import load_soil
-    path = Path(path or posterior_config(soil, folder))
-    text = (path if path.exists() else ROOT / "configs/soils" / f"{soil}.toml").read_text()
-    if POSTERIOR_HEAD in text:
-        text = text[:text.index(POSTERIOR_HEAD)].rstrip("\n") + "\n"
-    atomic_write(path, text + "\n" + posterior_block(soil, post, check_result, command, packings, folder))
-    load_soil(path)
-    return path
+    paths = [Path(path)] if path else posterior_configs(soil, folder)
+    block = posterior_block(soil, post, check_result, command, packings, folder)
+    for p in paths:
+        text = (p if p.exists() else ROOT / "configs/soils" / f"{soil}.toml").read_text()
+        if POSTERIOR_HEAD in text:
+            text = text[:text.index(POSTERIOR_HEAD)].rstrip("\n") + "\n"
+        atomic_write(p, text + "\n" + block)
+        load_soil(p)
+    return paths[0]
 
 
 def record_packings(soil: str, result: dict, seeds: list[int], out_dir: Path = BENCH_DIR,
