@@ -1264,6 +1264,14 @@ def report(out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
     check_tables = {soil: pd.read_csv(p, comment="#") if (p := Path(out_dir) / f"{soil}-check.csv").exists()
                     else pd.DataFrame() for soil in soils}
     panels = [*RESPONSES, *(["cone_kpa"] if any("cone_kpa" in c for c in checks.values()) else [])]
+    from analysis.core.bed_spec import CELL_INERTIAL
+    from analysis.soil.cell import cell_packings    # the cell's module reads this one's
+    grown = {}              # a shifted filter's posterior in a cell larger than the filter's, where it ran there
+    for soil in soils:
+        cells = cell_packings(soil, bench_dir=out_dir) if shifts[soil] else pd.DataFrame()
+        cells = cells[cells["inertial"] == CELL_INERTIAL] if len(cells) else cells
+        if len(cells) and cells["edge_mm"].max() > float(cfgs[soil].get("cell_edges_mm", [np.inf])[0]):
+            grown[soil] = cells[cells["edge_mm"] == cells["edge_mm"].max()]
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.4), squeeze=False)
     for j, r in enumerate(panels):
         ax = axes[0][j]
@@ -1285,6 +1293,10 @@ def report(out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
             points = c[r].to_numpy(float) if r in c else [checks[soil][r]["mean"]] if r in checks.get(soil, {}) else []
             ax.scatter(np.full(len(points), i + 0.15), np.asarray(points, float) + shift, s=36, marker="D",
                        c=SOIL_COLOURS[soil], label="posterior mean, check packings" if i == 0 else None)
+            if r in shifts[soil] and soil in grown:     # what the shift stands in for: the grown cell's own reading
+                g = grown[soil]
+                ax.scatter(np.full(len(g), i + 0.3), g[r], s=36, marker="D", facecolors="none",
+                           edgecolors=SOIL_COLOURS[soil], label=f"the same, {g['edge_mm'].iloc[0]:g} mm cell")
         moved = {f"{s} {shifts[s][r]:+g}" for s in soils if r in shifts[s]}
         ax.set_xticks(range(len(soils)), soils), ax.set_xlim(-0.6, len(soils) - 0.4)
         ax.set_title(f"{r}: reading + shift ({', '.join(sorted(moved))})" if moved else r)
