@@ -29,7 +29,7 @@ from scipy import stats
 from analysis.core.config import SEED
 from analysis.core.io import atomic_csv, atomic_write, say, shown
 from analysis.core.runner import run_logged
-from analysis.core.schema import ROOT, ConfigError, Field, digest
+from analysis.core.schema import ROOT, ConfigError, Field, digest, read_toml
 from analysis.core.soil_config import BENCH_DIR, SOIL_COLOURS
 from analysis.soil.collapse import FLOORS
 from analysis.soil.shear import READING, fit_tests
@@ -1264,12 +1264,10 @@ def report(out_dir: Path = BENCH_DIR, config: Path | None = None) -> list[Path]:
     check_tables = {soil: pd.read_csv(p, comment="#") if (p := Path(out_dir) / f"{soil}-check.csv").exists()
                     else pd.DataFrame() for soil in soils}
     panels = [*RESPONSES, *(["cone_kpa"] if any("cone_kpa" in c for c in checks.values()) else [])]
-    from analysis.core.bed_spec import CELL_INERTIAL
-    from analysis.soil.cell import cell_packings    # the cell's module reads this one's
+    from analysis.soil.cell import rated_packings    # the cell's module reads this one's
     grown = {}              # a shifted filter's posterior in a cell larger than the filter's, where it ran there
     for soil in soils:
-        cells = cell_packings(soil, bench_dir=out_dir) if shifts[soil] else pd.DataFrame()
-        cells = cells[cells["inertial"] == CELL_INERTIAL] if len(cells) else cells
+        cells = rated_packings(soil, bench_dir=out_dir) if shifts[soil] else pd.DataFrame()
         if len(cells) and cells["edge_mm"].max() > float(cfgs[soil].get("cell_edges_mm", [np.inf])[0]):
             grown[soil] = cells[cells["edge_mm"] == cells["edge_mm"].max()]
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.4), squeeze=False)
@@ -1390,10 +1388,10 @@ def posterior_configs(soil: str, folder: Path = BENCH_DIR) -> list[Path]:
     [['configs/soils/sand.toml'], ['results/calibration/bench/onset-filter/sand.toml']]
     """
     folder, runs = Path(folder), ROOT / "configs/soils" / f"{soil}.toml"
-    drawn = tomllib.loads(runs.read_text()).get("bench_posterior", {}).get("folder")
-    here = folder.resolve() == (ROOT / drawn).resolve() if drawn else folder.resolve() == BENCH_DIR.resolve()
-    own = [] if here and folder.resolve() == BENCH_DIR.resolve() else [folder / f"{soil}.toml"]
-    return own + ([runs] if here else [])
+    drawn = read_toml(runs).get("bench_posterior", {}).get("folder")
+    box = folder.resolve() == BENCH_DIR.resolve()
+    here = folder.resolve() == (ROOT / drawn).resolve() if drawn else box
+    return ([] if here and box else [folder / f"{soil}.toml"]) + ([runs] if here else [])
 
 
 def write_posterior(soil: str, post: dict, check_result: dict, command: str, path: Path | None = None,

@@ -107,6 +107,12 @@ def cell_packings(soil: str, folder: Path = CELL_DIR, bench_dir: Path = BENCH_DI
     return pd.DataFrame(list(rows.values())).sort_values(["edge_mm", "inertial", "seed"]) if rows else pd.DataFrame()
 
 
+def rated_packings(soil: str, folder: Path = CELL_DIR, bench_dir: Path = BENCH_DIR) -> pd.DataFrame:
+    """`cell_packings` at the cell's shear rate (CELL_INERTIAL): the readings its checks judge."""
+    cells = cell_packings(soil, folder, bench_dir)
+    return cells[cells["inertial"] == CELL_INERTIAL] if len(cells) else cells
+
+
 def rate_table(cells: pd.DataFrame) -> pd.DataFrame:
     """The cell's rate check: per edge, each other inertial number's c and φ against CELL_INERTIAL's (`size_shift`'s
     rule: the slower cell moves the mean less than the packings' SD).

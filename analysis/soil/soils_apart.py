@@ -119,10 +119,8 @@ def run(out_dir: Path = BENCH_DIR, folders: dict[str, Path] | None = None) -> li
         box = cfg[key]
         checks = {s: posterior_packings(s, box, folders[s], folders[s]) for s in soils}
         tables.append(responses_apart(checks, targets, SHEAR_RESPONSES).assign(read_in=mm(box)))
-    from analysis.core.bed_spec import CELL_INERTIAL
-    from analysis.soil.cell import cell_packings
-    cells = {s: cell_packings(s, bench_dir=folders[s]) for s in soils}
-    cells = {s: t[t["inertial"] == CELL_INERTIAL] for s, t in cells.items() if len(t)}
+    from analysis.soil.cell import rated_packings
+    cells = {s: t for s in soils if len(t := rated_packings(s, bench_dir=folders[s]))}
     for edge in sorted({e for t in cells.values() for e in t["edge_mm"]}):     # the wall-free cell, each edge
         at = {s: t[t["edge_mm"] == edge] for s, t in cells.items()}
         tables.append(responses_apart(at, targets, SHEAR_RESPONSES).assign(read_in=f"cell {edge:g}"))
